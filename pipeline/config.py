@@ -1,0 +1,112 @@
+"""Load and validate the workflow configuration; enumerate DEM runs and derive their seeds.
+
+The schema (``config/schema.yaml``) is the single description of what a config may hold. An
+invalid config stops everything with a message naming the file, the key and what is wrong.
+"""
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+from typing import Any
+
+import jsonschema
+import yaml
+
+SCHEMA_PATH = Path(__file__).resolve().parent.parent / "config" / "schema.yaml"
+
+
+class ConfigError(ValueError):
+    """The configuration is invalid; the message names the file and the key."""
+
+
+def _key_path(error: jsonschema.ValidationError) -> str:
+    parts = [str(p) for p in error.absolute_path]
+    return ".".join(parts) if parts else "(top level)"
+
+
+def validate_config(config: dict[str, Any], source: str = "<config>") -> dict[str, Any]:
+    """Check ``config`` against the schema; raise :class:`ConfigError` naming the first bad key."""
+    schema = yaml.safe_load(SCHEMA_PATH.read_text())
+    validator = jsonschema.Draft7Validator(schema)
+    errors = sorted(validator.iter_errors(config), key=lambda e: (len(list(e.absolute_path)), str(e.absolute_path)))
+    if errors:
+        lines = [f"{source}: {_key_path(e)}: {e.message}" for e in errors[:10]]
+        raise ConfigError("invalid configuration:\n  " + "\n  ".join(lines))
+    _check_consistency(config, source)
+    return config
+
+
+def _check_consistency(config: dict[str, Any], source: str) -> None:
+    mat = config["material"]
+    if mat["design_overlap"] >= mat["max_overlap"]:
+        raise ConfigError(
+            f"{source}: material.design_overlap ({mat['design_overlap']}) must be below "
+            f"material.max_overlap ({mat['max_overlap']})"
+        )
+    dem = config["dem"]
+    if dem["steady_window_chunks"] > dem["max_shear_chunks"]:
+        raise ConfigError(
+            f"{source}: dem.steady_window_chunks ({dem['steady_window_chunks']}) exceeds "
+            f"dem.max_shear_chunks ({dem['max_shear_chunks']})"
+        )
+
+
+def load_config(path: str | Path) -> dict[str, Any]:
+    """Read a YAML config file and validate it."""
+    path = Path(path)
+    try:
+        config = yaml.safe_load(path.read_text())
+    except FileNotFoundError:
+        raise ConfigError(f"{path}: config file not found") from None
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"{path}: not valid YAML: {exc}") from None
+    if not isinstance(config, dict):
+        raise ConfigError(f"{path}: top level must be a mapping of keys")
+    return validate_config(config, str(path))
+
+
+def run_ids(case_name: str, case: dict[str, Any]) -> list[str]:
+    """Names of the DEM runs of one case: one per (inertial number, replica) or per replica."""
+    replicas = [f"r{k + 1}" for k in range(case["replicas"])]
+    if case_name == "rheometer":
+        return [f"I{inertial:g}-{rep}" for inertial in case["inertial_numbers"] for rep in replicas]
+    return replicas
+
+
+def dem_runs(config: dict[str, Any]) -> list[tuple[str, str]]:
+    """Every (case, run) pair of the config, in a stable order."""
+    return [(name, run) for name, case in config["cases"].items() for run in run_ids(name, case)]
+
+
+def run_inertial_number(run: str) -> float:
+    """Target inertial number encoded in a rheometer run id (``I0.02-r1`` -> 0.02)."""
+    if not run.startswith("I") or "-" not in run:
+        raise ValueError(f"run id {run!r} does not name an inertial number (expected 'I<value>-r<k>')")
+    return float(run[1:].split("-", 1)[0])
+
+
+def derived_seed(master_seed: int, *labels: str) -> int:
+    """A deterministic 31-bit seed from the master seed and labels (stable across Python runs)."""
+    text = ":".join([str(master_seed), *labels]).encode()
+    return int.from_bytes(hashlib.sha256(text).digest()[:4], "little") & 0x7FFFFFFF
+
+
+def _is_prime(n: int) -> bool:
+    if n < 2:
+        return False
+    if n % 2 == 0:
+        return n == 2
+    k = 3
+    while k * k <= n:
+        if n % k == 0:
+            return False
+        k += 2
+    return True
+
+
+def liggghts_seed(master_seed: int, *labels: str) -> int:
+    """A prime above 10000 derived from the master seed (LIGGGHTS requires prime seeds)."""
+    n = 10007 + derived_seed(master_seed, *labels) % 50_000_000
+    while not _is_prime(n):
+        n += 1
+    return n

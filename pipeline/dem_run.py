@@ -1,0 +1,521 @@
+"""Run one planar-shear DEM case with LIGGGHTS: fill and settle, shear until steady, produce.
+
+Stages, each a separate LIGGGHTS call continued from the previous one's restart file:
+
+1. ``fill``: pour and settle the grains under gravity; the pipeline then makes the lowest and the
+   highest layer of grains into the rough walls.
+2. ``shear_NNN``: chunks of ``chunk_strain`` wall displacement over depth each; after every chunk
+   the wall shear force and wall height over the trailing ``steady_window_chunks`` chunks are
+   tested for drift (:mod:`pipeline.steady_state`). The first window that passes is the start of
+   the steady state.
+3. ``production_NNN``: chunks of the same length that also dump particles and contacts.
+
+Every chunk is committed (restart renamed from its temporary name, state.json rewritten) only
+after its log and its wall series passed the failure checks, so a killed run resumes from the
+last committed chunk and gives the same numbers. ``run.json`` is written last, under a temporary
+name renamed at the end: its presence means the run finished.
+
+Usage: ``python -m pipeline.dem_run --config config/config.yaml --case rheometer --run I0.02-r1``
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import shlex
+import shutil
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from pipeline import liggghts_render as render
+from pipeline.config import derived_seed, liggghts_seed, load_config, run_inertial_number
+from pipeline.contact_scaling import ContactDesign, design_contacts
+from pipeline.liggghts_log import DEMRunError, check_run, printed_value
+from pipeline.provenance import provenance
+from pipeline.steady_state import drift_test
+from pipeline.wall_series import read_wall_series
+
+#: Column of ``delta`` (overlap) among the pair/gran/local outputs ``pos id force contactPoint delta``
+#: (LIGGGHTS orders them pos(6) id(3) force(3) delta(1) contactPoint(3); checked by a test on a real run).
+CONTACT_COLUMNS = (
+    "x1", "y1", "z1", "x2", "y2", "z2", "id1", "id2", "periodic",
+    "fx", "fy", "fz", "delta", "cx", "cy", "cz",
+)
+DELTA_COLUMN = CONTACT_COLUMNS.index("delta") + 1
+#: Solid fraction assumed when estimating the height of the initial loose insertion region.
+INSERTION_SOLID_FRACTION = 0.25
+#: Kinetic energy per grain, in units of m g d, below which the poured packing counts as settled.
+SETTLED_KE_PER_GRAIN = 1e-3
+
+
+def mean_grain_volume(d: float, polydispersity: float, n_sizes: int) -> float:
+    """Number-mean grain volume (m3) of the discrete size distribution."""
+    return float(np.mean([math.pi * s**3 / 6.0 for s in render.size_classes(d, polydispersity, n_sizes)]))
+
+
+def largest_pressure(config: dict[str, Any]) -> float:
+    """Largest working pressure (Pa) of any case: the top-wall load plus the weight of the bed."""
+    mat = config["material"]
+    v_grain = mean_grain_volume(mat["d"], mat["polydispersity"], mat["n_sizes"])
+    p_max = 0.0
+    for case in config["cases"].values():
+        area = case["cell_x"] * case["cell_y"] * mat["d"] ** 2
+        weight = case["n_grains"] * v_grain * mat["rho_s"] * case["gravity"]
+        p_max = max(p_max, case["wall_pressure"] + weight / area)
+    return p_max
+
+
+def contact_design(config: dict[str, Any]) -> ContactDesign:
+    """The one contact design shared by all cases, so the calibration transfers between them."""
+    mat = config["material"]
+    return design_contacts(
+        p_max=largest_pressure(config),
+        d=mat["d"],
+        polydispersity=mat["polydispersity"],
+        rho_s=mat["rho_s"],
+        poisson_ratio=mat["poisson_ratio"],
+        design_overlap=mat["design_overlap"],
+        max_overlap=mat["max_overlap"],
+        dt_over_contact_time=mat["dt_over_contact_time"],
+    )
+
+
+@dataclass
+class Launcher:
+    """How LIGGGHTS is started: ``[mpi_launcher -n ranks] liggghts``."""
+
+    liggghts: str
+    mpi_launcher: str = ""
+    ranks: int = 1
+
+    def command(self, input_name: str, log_name: str) -> list[str]:
+        binary = shutil.which(self.liggghts)
+        if binary is None:
+            raise DEMRunError(f"LIGGGHTS executable {self.liggghts!r} not found on PATH (install the Debian package 'liggghts')")
+        # Screen output is kept (sent to a file by the caller): LIGGGHTS 3.8 crashes in some
+        # fixes (wall/gran primitive) when started with '-screen none'.
+        cmd = [binary, "-in", input_name, "-log", log_name]
+        if self.mpi_launcher:
+            launcher = shlex.split(self.mpi_launcher)
+            if shutil.which(launcher[0]) is None:
+                raise DEMRunError(f"MPI launcher {launcher[0]!r} not found on PATH")
+            cmd = [*launcher, "-n", str(self.ranks), *cmd]
+        return cmd
+
+
+def _mpi_environment() -> dict[str, str]:
+    env = dict(os.environ)
+    # Open MPI refuses to start as root unless told; CI and containers run as root.
+    env.setdefault("OMPI_ALLOW_RUN_AS_ROOT", "1")
+    env.setdefault("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
+    env.setdefault("OMPI_MCA_rmaps_base_oversubscribe", "1")
+    return env
+
+
+def run_liggghts(launcher: Launcher, run_dir: Path, stage: str, label: str) -> float:
+    """Run ``in.<stage>`` in ``run_dir``; return wall-clock seconds. Raises :class:`DEMRunError`."""
+    log = Path("logs") / f"{stage}.log"
+    (run_dir / "logs").mkdir(exist_ok=True)
+    screen = run_dir / "logs" / f"{stage}.screen"
+    start = time.perf_counter()
+    with screen.open("w") as out:
+        proc = subprocess.run(
+            launcher.command(f"in.{stage}", str(log)),
+            cwd=run_dir,
+            stdout=out,
+            stderr=subprocess.STDOUT,
+            env=_mpi_environment(),
+            check=False,
+        )
+    seconds = time.perf_counter() - start
+    check_run(f"{label} stage {stage}", run_dir / log, proc.returncode, screen.read_text(errors="replace"))
+    return seconds
+
+
+def read_settled(path: Path) -> pd.DataFrame:
+    """The single snapshot of ``settled.dump`` (columns id type x y z radius mass)."""
+    lines = path.read_text().splitlines()
+    try:
+        header_at = next(i for i, line in enumerate(lines) if line.startswith("ITEM: ATOMS"))
+    except StopIteration:
+        raise DEMRunError(f"{path}: no 'ITEM: ATOMS' section") from None
+    columns = lines[header_at].split()[2:]
+    n_atoms = int(lines[lines.index("ITEM: NUMBER OF ATOMS") + 1])
+    body = lines[header_at + 1 :]
+    if len(body) != n_atoms:
+        raise DEMRunError(f"{path}: expected {n_atoms} atom lines, found {len(body)} (truncated?)")
+    data = np.array([line.split() for line in body], dtype=float)
+    return pd.DataFrame(data, columns=columns)
+
+
+def choose_walls(settled: pd.DataFrame, area: float, d: float) -> tuple[np.ndarray, np.ndarray]:
+    """Ids of the bottom and top wall grains: the lowest and highest ``area / d^2`` grains.
+
+    ``area / d^2`` grains cover a wall about as densely as a monolayer (85 % of the square-lattice
+    count of the largest grains), enough that no flowing grain can pass through the wall.
+    """
+    n_wall = max(1, int(round(area / d**2)))
+    if 2 * n_wall >= len(settled) // 2:
+        raise DEMRunError(f"only {len(settled)} grains: too few to build two walls of {n_wall} grains and a bed")
+    order = np.argsort(settled["z"].to_numpy(), kind="stable")
+    ids = settled["id"].to_numpy().astype(int)
+    return ids[order[:n_wall]], ids[order[-n_wall:]]
+
+
+class PlanarShearRun:
+    """One DEM run of a planar shear case (rheometer or shear with gravity)."""
+
+    def __init__(self, config: dict[str, Any], case_name: str, run_id: str, run_dir: Path) -> None:
+        self.config = config
+        self.case_name = case_name
+        self.run_id = run_id
+        self.case = config["cases"][case_name]
+        self.mat = config["material"]
+        self.dem = config["dem"]
+        self.run_dir = run_dir
+        self.label = f"DEM run {case_name}/{run_id}"
+        self.design = contact_design(config)
+        self.launcher = Launcher(self.dem["liggghts"], self.dem["mpi_launcher"], self.dem["mpi_ranks"])
+        self.seed = derived_seed(config["seed"], case_name, run_id)
+        self.state_path = run_dir / "state.json"
+        self.state: dict[str, Any] = {}
+
+    # ----------------------------------------------------------------------------------- state
+    def _load_state(self) -> None:
+        fingerprint = {"config": self.config, "case": self.case_name, "run": self.run_id}
+        if self.state_path.exists():
+            state = json.loads(self.state_path.read_text())
+            if state.get("fingerprint") == fingerprint:
+                self.state = state
+                return
+            # Chunks made with another config cannot be continued: start this run afresh.
+            for item in ("restart", "logs", "dumps", "series"):
+                shutil.rmtree(self.run_dir / item, ignore_errors=True)
+        self.state = {"fingerprint": fingerprint, "chunks": [], "steady": None, "wall_seconds": 0.0}
+
+    def _save_state(self) -> None:
+        tmp = self.state_path.with_suffix(".json.tmp")
+        tmp.write_text(json.dumps(self.state, indent=1))
+        tmp.replace(self.state_path)
+
+    # ------------------------------------------------------------------------------- variables
+    def _base_variables(self) -> dict[str, object]:
+        d = self.mat["d"]
+        n_types = 4
+        return {
+            "Lx": self.case["cell_x"] * d,
+            "Ly": self.case["cell_y"] * d,
+            "skin": 0.1 * d,
+            "youngs_modulus": self.design.youngs_modulus,
+            "poisson_ratio": self.mat["poisson_ratio"],
+            "restitution_matrix": [self.mat["restitution"]] * n_types**2,
+            "friction_matrix": [self.mat["friction"]] * n_types**2,
+            "dt": self.design.dt,
+        }
+
+    def _fill(self) -> None:
+        d, rho = self.mat["d"], self.mat["rho_s"]
+        area = self.case["cell_x"] * self.case["cell_y"] * d**2
+        v_grain = mean_grain_volume(d, self.mat["polydispersity"], self.mat["n_sizes"])
+        lz = self.case["n_grains"] * v_grain / (INSERTION_SOLID_FRACTION * area) + 2.0 * d
+        g_fill = self.case["gravity"] if self.case["gravity"] > 0 else 9.81
+        m_grain = rho * v_grain
+        fall_time = math.sqrt(2.0 * lz / g_fill)
+        # Short chunks: the kinetic energy is tested after each, so settling stops soon after rest.
+        settle_chunk = int(math.ceil(0.5 * fall_time / self.design.dt))
+        seeds = [liggghts_seed(self.seed, "size", str(k)) for k in range(self.mat["n_sizes"])]
+        (self.run_dir / "grains.in").write_text(
+            render.grains_include(
+                d, self.mat["polydispersity"], self.mat["n_sizes"], rho, seeds, liggghts_seed(self.seed, "pdd")
+            )
+        )
+        variables = self._base_variables() | {
+            "Lz_box": lz,
+            "n_grains": self.case["n_grains"],
+            "seed_insert": liggghts_seed(self.seed, "insert"),
+            "g_fill": g_fill,
+            "thermo_every": max(1, settle_chunk // 4),
+            "settle_chunk_steps": settle_chunk,
+            "settle_max_chunks": 40,
+            "fill_drag": m_grain / fall_time,
+            "ke_settled": SETTLED_KE_PER_GRAIN * self.case["n_grains"] * m_grain * g_fill * d,
+        }
+        render.render_stage(self.run_dir, "fill", "fill.in", variables)
+        seconds = run_liggghts(self.launcher, self.run_dir, "fill", self.label)
+        ke = printed_value(self.run_dir / "logs" / "fill.log", "SETTLED_KE")
+        if ke > variables["ke_settled"]:
+            raise DEMRunError(
+                f"{self.label}: the poured grains did not settle (kinetic energy {ke:.3g} J > {variables['ke_settled']:.3g} J "
+                f"after {variables['settle_max_chunks']} chunks)"
+            )
+        settled = read_settled(self.run_dir / "settled.dump")
+        if len(settled) != self.case["n_grains"]:
+            raise DEMRunError(f"{self.label}: inserted {len(settled)} grains, the config asks for {self.case['n_grains']}")
+        bottom, top = choose_walls(settled, area, d)
+        (self.run_dir / "walls.in").write_text(render.walls_include(bottom.tolist(), top.tolist()))
+        z = settled.set_index(settled["id"].astype(int))["z"]
+        z_bottom, z_top = float(z.loc[bottom].mean()), float(z.loc[top].mean())
+        gap = z_top - z_bottom
+        self.state["fill"] = {
+            "wall_seconds": seconds,
+            "n_wall_grains": int(len(bottom)),
+            "settled_gap": gap,
+            "z_bottom_wall": z_bottom,
+            "z_top_wall": z_top,
+            "settled_ke": ke,
+            "wall_mass": float(settled.set_index(settled["id"].astype(int))["mass"].loc[top].sum()),
+        }
+        self.state["wall_seconds"] += seconds
+        self._save_state()
+
+    # ------------------------------------------------------------------------------- shearing
+    def wall_speed(self) -> float:
+        """Top-wall speed (m/s): given, or from the target inertial number of a rheometer run."""
+        if "wall_speed" in self.case:
+            return float(self.case["wall_speed"])
+        target = run_inertial_number(self.run_id)
+        shear_rate = target * math.sqrt(self.case["wall_pressure"] / self.mat["rho_s"]) / self.mat["d"]
+        return shear_rate * self.state["fill"]["settled_gap"]
+
+    def _chunk_plan(self) -> dict[str, int]:
+        v = self.wall_speed()
+        samples = self.dem["series_samples_per_chunk"]
+        duration = self.dem["chunk_strain"] * self.state["fill"]["settled_gap"] / v
+        nevery = max(1, int(round(duration / self.design.dt / samples / 10)))
+        series_every = 10 * nevery
+        chunk_steps = series_every * samples
+        n_prod = max(1, int(math.ceil(self.dem["production_strain"] / self.dem["chunk_strain"])))
+        per_chunk = max(1, int(math.ceil(self.dem["snapshots"] / n_prod)))
+        dump_every = max(1, chunk_steps // per_chunk)
+        while chunk_steps % dump_every:
+            dump_every -= 1
+        return {
+            "chunk_steps": chunk_steps,
+            "series_nevery": nevery,
+            "series_nrepeat": 10,
+            "series_every": series_every,
+            "production_chunks": n_prod,
+            "dump_every": dump_every,
+        }
+
+    def _wall_damping(self) -> float:
+        """Total damping coefficient (N s/m) on the wall's vertical speed: critical for the bed spring.
+
+        The bed acts on the wall as a spring of stiffness ``K = E_bed A / h``; the bed modulus is
+        estimated from the linearised Hertz stiffness at the design overlap, ``E_bed ~ Z nu k / (pi d)``.
+        """
+        d = self.mat["d"]
+        e_star = self.design.effective_modulus
+        k_n = 2.0 * e_star * math.sqrt(0.25 * d * self.mat["design_overlap"] * d)
+        e_bed = 2.7 * k_n / (math.pi * d)
+        area = self.case["cell_x"] * self.case["cell_y"] * d**2
+        stiffness = e_bed * area / self.state["fill"]["settled_gap"]
+        return 2.0 * math.sqrt(stiffness * self.state["fill"]["wall_mass"])
+
+    def _run_chunk(self, kind: str, index: int, plan: dict[str, int]) -> dict[str, Any]:
+        stage = f"{kind}_{index:03d}"
+        chunks = self.state["chunks"]
+        restart_in = "fill.restart" if not chunks else chunks[-1]["restart"]
+        restart_out = f"restart/{stage}.restart"
+        (self.run_dir / "restart").mkdir(exist_ok=True)
+        (self.run_dir / "series").mkdir(exist_ok=True)
+        n_wall = self.state["fill"]["n_wall_grains"]
+        area = self.case["cell_x"] * self.case["cell_y"] * self.mat["d"] ** 2
+        production = kind == "production"
+        if production:
+            (self.run_dir / "dumps").mkdir(exist_ok=True)
+        variables = self._base_variables() | {
+            "restart_in": restart_in,
+            "restart_out": restart_out + ".tmp",
+            "first_chunk": int(not chunks),
+            "z_bottom_wall": self.state["fill"]["z_bottom_wall"],
+            "z_top_wall": self.state["fill"]["z_top_wall"],
+            "wall_speed": self.wall_speed(),
+            "gravity": self.case["gravity"],
+            "load_per_grain": self.case["wall_pressure"] * area / n_wall,
+            "wall_damping_per_grain": self._wall_damping() / n_wall,
+            "delta_column": DELTA_COLUMN,
+            "series_nevery": plan["series_nevery"],
+            "series_nrepeat": plan["series_nrepeat"],
+            "series_every": plan["series_every"],
+            "series_file": f"series/{stage}.txt",
+            "thermo_every": plan["chunk_steps"] // 4,
+            "chunk_steps": plan["chunk_steps"],
+            "dump_every": plan["dump_every"] if production else 0,
+            "particle_dump": f"dumps/particles_{index:03d}.dump",
+            "contact_dump": f"dumps/contacts_{index:03d}.dump",
+            "contact_columns": [f"c_pgl[{k}]" for k in range(1, len(CONTACT_COLUMNS) + 1)],
+        }
+        render.render_stage(self.run_dir, stage, "shear.in", variables)
+        seconds = run_liggghts(self.launcher, self.run_dir, stage, self.label)
+        series = read_wall_series(self.run_dir / variables["series_file"])
+        self._check_series(series, stage)
+        (self.run_dir / (restart_out + ".tmp")).replace(self.run_dir / restart_out)
+        record = {"stage": stage, "kind": kind, "restart": restart_out, "wall_seconds": seconds,
+                  "steps": plan["chunk_steps"], "series": variables["series_file"],
+                  "t_start": float(series["time"].iloc[0]), "t_end": float(series["time"].iloc[-1])}
+        if production:
+            record["dumps"] = [variables["particle_dump"], variables["contact_dump"]]
+        chunks.append(record)
+        self.state["wall_seconds"] += seconds
+        self._save_state()
+        return record
+
+    def _check_series(self, series: pd.DataFrame, stage: str) -> None:
+        d = self.mat["d"]
+        v = self.wall_speed()
+        n_flow = self.case["n_grains"] - 2 * self.state["fill"]["n_wall_grains"]
+        m_grain = self.mat["rho_s"] * mean_grain_volume(d, self.mat["polydispersity"], self.mat["n_sizes"])
+        scale = 0.5 * m_grain * v**2 + self.case["wall_pressure"] * d**3
+        ke_ratio = float(series["ke"].max()) / n_flow / scale
+        if ke_ratio > self.dem["max_ke_ratio"]:
+            raise DEMRunError(
+                f"{self.label} stage {stage}: kinetic energy blew up ({ke_ratio:.3g} x (m V^2/2 + P d^3) per grain, "
+                f"limit {self.dem['max_ke_ratio']:g}): time step too large or walls too soft?"
+            )
+        max_overlap = float(series["max_overlap"].max()) / d
+        if max_overlap > self.mat["max_overlap"]:
+            raise DEMRunError(
+                f"{self.label} stage {stage}: contact overlap reached {max_overlap:.3g} d, above the bound "
+                f"material.max_overlap = {self.mat['max_overlap']:g} d (grains too soft for the pressure)"
+            )
+
+    def series(self, kinds: tuple[str, ...] = ("shear", "production")) -> pd.DataFrame:
+        """The wall series of all committed chunks of the given kinds, in time order."""
+        frames = [read_wall_series(self.run_dir / c["series"]) for c in self.state["chunks"] if c["kind"] in kinds]
+        return pd.concat(frames, ignore_index=True)
+
+    def _steady_test(self, window_chunks: list[dict[str, Any]]) -> dict[str, Any]:
+        frames = [read_wall_series(self.run_dir / c["series"]) for c in window_chunks]
+        data = pd.concat(frames, ignore_index=True)
+        depth = self.state["fill"]["settled_gap"]
+        force = drift_test(data["time"], data["ftop_x"], self.dem["steady_force_tol"], float(data["ftop_x"].mean()))
+        height = drift_test(data["time"], data["h_top"], self.dem["steady_height_tol"], depth)
+        return {"force": force.as_dict(), "height": height.as_dict(),
+                "stationary": force.stationary and height.stationary,
+                "t_start": window_chunks[0]["t_start"], "t_end": window_chunks[-1]["t_end"]}
+
+    # ------------------------------------------------------------------------------------ run
+    def run(self) -> dict[str, Any]:
+        """Run (or resume) all stages; return the run.json record."""
+        self.run_dir.mkdir(parents=True, exist_ok=True)
+        geometry = self.case["geometry"]
+        render.copy_templates(geometry, self.run_dir)
+        self._load_state()
+        if "fill" not in self.state:
+            self._fill()
+        plan = self._chunk_plan()
+        window = self.dem["steady_window_chunks"]
+        while self.state["steady"] is None:
+            shear = [c for c in self.state["chunks"] if c["kind"] == "shear"]
+            if len(shear) >= window:
+                test = self._steady_test(shear[-window:])
+                self.state["last_steady_test"] = test
+                if test["stationary"]:
+                    self.state["steady"] = test
+                    self._save_state()
+                    break
+            if len(shear) >= self.dem["max_shear_chunks"]:
+                test = self.state.get("last_steady_test", {})
+                raise DEMRunError(
+                    f"{self.label}: no steady state after {len(shear)} shear chunks (dem.max_shear_chunks); "
+                    f"last drift test: force {test.get('force')}, height {test.get('height')}"
+                )
+            self._run_chunk("shear", len(shear), plan)
+        produced = [c for c in self.state["chunks"] if c["kind"] == "production"]
+        for index in range(len(produced), plan["production_chunks"]):
+            self._run_chunk("production", index, plan)
+        return self._record(plan)
+
+    def _record(self, plan: dict[str, int]) -> dict[str, Any]:
+        production = [c for c in self.state["chunks"] if c["kind"] == "production"]
+        prod_series = self.series(("production",))
+        depth = self.state["fill"]["settled_gap"]
+        prod_force = drift_test(prod_series["time"], prod_series["ftop_x"], self.dem["steady_force_tol"], float(prod_series["ftop_x"].mean()))
+        prod_height = drift_test(prod_series["time"], prod_series["h_top"], self.dem["steady_height_tol"], depth)
+        sizes = render.size_classes(self.mat["d"], self.mat["polydispersity"], self.mat["n_sizes"])
+        return {
+            "case": self.case_name,
+            "run": self.run_id,
+            "geometry": self.case["geometry"],
+            "particle_count": self.case["n_grains"],
+            "wall_grains_per_wall": self.state["fill"]["n_wall_grains"],
+            "diameters": sizes,
+            "d": self.mat["d"],
+            "density": self.mat["rho_s"],
+            "friction": self.mat["friction"],
+            "restitution": self.mat["restitution"],
+            "poisson_ratio": self.mat["poisson_ratio"],
+            "youngs_modulus": self.design.youngs_modulus,
+            "stiffness_rule": self.design.as_dict(),
+            "time_step": self.design.dt,
+            "wall_speed": self.wall_speed(),
+            "wall_pressure": self.case["wall_pressure"],
+            "gravity": self.case["gravity"],
+            "cell": [self.case["cell_x"] * self.mat["d"], self.case["cell_y"] * self.mat["d"]],
+            "settled_gap": depth,
+            "steps": int(sum(c["steps"] for c in self.state["chunks"])),
+            "shear_chunks": sum(1 for c in self.state["chunks"] if c["kind"] == "shear"),
+            "production_chunks": len(production),
+            "chunk_steps": plan["chunk_steps"],
+            "dump_every": plan["dump_every"],
+            "wall_clock_seconds": self.state["wall_seconds"],
+            "mpi_ranks": self.dem["mpi_ranks"],
+            "mpi_launcher": self.dem["mpi_launcher"],
+            "seed": self.seed,
+            "steady_state_window": [self.state["steady"]["t_start"], production[-1]["t_end"]],
+            "steady_state_test": self.state["steady"],
+            "production_window": [production[0]["t_start"], production[-1]["t_end"]],
+            "production_drift": {"force": prod_force.as_dict(), "height": prod_height.as_dict()},
+            "max_overlap_over_d": float(self.series()["max_overlap"].max() / self.mat["d"]),
+            "particle_dumps": [c["dumps"][0] for c in production],
+            "contact_dumps": [c["dumps"][1] for c in production],
+            "contact_columns": list(CONTACT_COLUMNS),
+            "provenance": provenance(self.config),
+        }
+
+
+def write_json_atomic(path: Path, data: dict[str, Any]) -> None:
+    """Write JSON under a temporary name and rename, so a partial file never looks complete."""
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(json.dumps(data, indent=1, default=float))
+    tmp.replace(path)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--config", required=True, help="workflow config (YAML)")
+    parser.add_argument("--case", required=True, help="case name in the config (rheometer, shear_gravity)")
+    parser.add_argument("--run", required=True, help="run id (e.g. I0.02-r1, r2)")
+    parser.add_argument("--out", help="run folder (default: <output_root>/dem/<case>/<run>)")
+    parser.add_argument("--mpi-ranks", type=int, help="override dem.mpi_ranks")
+    parser.add_argument("--mpi-launcher", help="override dem.mpi_launcher")
+    args = parser.parse_args(argv)
+    config = load_config(args.config)
+    if args.mpi_ranks is not None:
+        config["dem"]["mpi_ranks"] = args.mpi_ranks
+    if args.mpi_launcher is not None:
+        config["dem"]["mpi_launcher"] = args.mpi_launcher
+    if args.case not in config["cases"]:
+        parser.error(f"case {args.case!r} is not in {args.config} (cases: {', '.join(config['cases'])})")
+    out = Path(args.out) if args.out else Path(config["output_root"]) / "dem" / args.case / args.run
+    record = PlanarShearRun(config, args.case, args.run, out).run()
+    write_json_atomic(out / "run.json", record)
+    print(f"{args.case}/{args.run}: {record['steps']} steps in {record['wall_clock_seconds']:.1f} s of LIGGGHTS")
+    return 0
+
+
+if __name__ == "__main__":
+    try:
+        sys.exit(main())
+    except DEMRunError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        sys.exit(1)
