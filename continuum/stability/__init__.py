@@ -172,7 +172,28 @@ def classify(
     s = _eigs(model, I, p, variant, K, theta)
     G = base.max_growth(s)
     scale = np.max(np.abs(s), axis=(-1, -2))
-    return StateResult(state_mu(model, I, p), float(G.max()), base.is_well_posed(K, G, scale))
+    ok = base.is_well_posed(K, G, scale) and not _pressure_degenerate(model, I, p, variant)
+    return StateResult(state_mu(model, I, p), float(G.max()), ok)
+
+
+def _pressure_degenerate(model: str, I: float, p: dict[str, float], variant: str) -> bool:
+    """Incompressible laws whose pressure equation loses its coefficient at some orientation.
+
+    The normal momentum balance fixes the pressure perturbation through ``1 - m cos 2 theta'``
+    (theta' from the stretching axis, docs/stability.md); once ``m >= 1`` it vanishes along a
+    direction and the growth rate has a pole there, unbounded over wavevectors of finite |k| that
+    a sampled theta grid only brushes. m = mu (1 - c/2) for mu(I), mu for NGF (where numerically
+    the poles appear exactly from mu = 1) and sin(phi) for the Coulomb limit.
+    """
+    if model == "ngf":
+        return ngf.base_mu(I, p["mu_s"], p["mu_2"], p["I_0"]) >= 1.0
+    if model == "local_mu_i" and variant != "compressible":
+        mu = float(mu_i.mu_of_I(I, p["mu_s"], p["mu_2"], p["I_0"]))
+        c = I * (p["mu_2"] - p["mu_s"]) * p["I_0"] / (I + p["I_0"]) ** 2 / mu
+        return mu * (1.0 - c / 2.0) >= 1.0
+    if model == "critical_state" and variant == "incompressible":
+        return p["sin_phi"] >= 1.0
+    return False
 
 
 def well_posed(model: str, I: float, params: Mapping[str, float], variant: str = "") -> bool:

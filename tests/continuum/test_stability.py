@@ -148,3 +148,16 @@ def test_stability_map_shapes_and_consistency():
     m = st.stability_map("local_mu_i", REF, I, theta=theta)
     assert m.growth.shape == m.well_posed.shape == (2, 18)
     assert not m.well_posed[0].all() and m.well_posed[1].all()
+
+
+def test_ngf_above_mu_one_has_a_pressure_pole_and_is_classified_ill_posed():
+    from continuum.stability import ngf
+
+    # mu = mu_s + b I crosses 1 at I ~ 0.66: a fine orientation scan finds huge growth at
+    # finite k there, and none just below
+    theta = np.linspace(0, np.pi, 20001)[:-1]
+    K = np.logspace(-1, 3, 9)
+    below = base.max_growth(ngf.growth(0.6, **GB, A=0.48, K=K, theta=theta)).max()
+    above = base.max_growth(ngf.growth(0.7, **GB, A=0.48, K=K, theta=theta)).max()
+    assert below < 1.0 < 1e4 < above
+    assert st.well_posed("ngf", 0.6, REF) and not st.well_posed("ngf", 0.7, REF)
