@@ -103,7 +103,7 @@ class Launcher:
         # Screen output is kept (sent to a file by the caller): LIGGGHTS 3.8 crashes in some
         # fixes (wall/gran primitive) when started with '-screen none'.
         cmd = [binary, "-in", input_name, "-log", log_name]
-        if self.mpi_launcher:
+        if self.mpi_launcher and self.mpi_launcher != "none":
             launcher = shlex.split(self.mpi_launcher)
             if shutil.which(launcher[0]) is None:
                 raise DEMRunError(f"MPI launcher {launcher[0]!r} not found on PATH")
@@ -497,7 +497,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--run", required=True, help="run id (e.g. I0.02-r1, r2)")
     parser.add_argument("--out", help="run folder (default: <output_root>/dem/<case>/<run>)")
     parser.add_argument("--mpi-ranks", type=int, help="override dem.mpi_ranks")
-    parser.add_argument("--mpi-launcher", help="override dem.mpi_launcher")
+    parser.add_argument("--mpi-launcher", help="override dem.mpi_launcher ('none' runs the binary directly)")
     args = parser.parse_args(argv)
     config = load_config(args.config)
     if args.mpi_ranks is not None:
