@@ -41,7 +41,8 @@ def parameter_attrs(params: CriticalStateParameters) -> dict[str, float]:
 
 
 def solve(geometry: PlanarShear, params: CriticalStateParameters, n_grid: int = 200,
-          nu_initial: InitialPacking = None, case: str | None = None) -> xr.Dataset:
+          nu_initial: InitialPacking = None, case: str | None = None,
+          max_iterations: int = 20000) -> xr.Dataset:
     """Steady velocity-driven planar shear with local critical-state plasticity.
 
     Args:
@@ -60,7 +61,7 @@ def solve(geometry: PlanarShear, params: CriticalStateParameters, n_grid: int = 
     z = uniform_grid(geometry, n_grid)
     nu0 = initial_packing(z, geometry, params.line, nu_initial)
     p = hydrostatic_pressure(z, nu0, geometry)
-    state = evolve(z, nu0, p, params, None, MODEL, case=case)
+    state = evolve(z, nu0, p, params, None, MODEL, max_events=max_iterations, case=case)
     fields = {"nu": state.nu, "p": p, "mu": state.tau / p}
     band_height = -1.0
     if state.band >= 0:

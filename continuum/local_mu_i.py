@@ -70,7 +70,8 @@ def _flowing_layer(tau: float, geometry: PlanarShear, params: LocalMuIParameters
             "velocity_drop": velocity_drop, "yield_inside": np.array(yield_inside)}
 
 
-def solve(geometry: PlanarShear, params: LocalMuIParameters, n_grid: int = 200, case: str | None = None) -> xr.Dataset:
+def solve(geometry: PlanarShear, params: LocalMuIParameters, n_grid: int = 200, case: str | None = None,
+          max_iterations: int = 200) -> xr.Dataset:
     """Steady velocity-driven planar shear with the local mu(I), nu(I) laws.
 
     Args:
@@ -84,6 +85,8 @@ def solve(geometry: PlanarShear, params: LocalMuIParameters, n_grid: int = 200, 
     Returns:
         The contract's Dataset with u_x, shear_rate, nu, p, mu on z (m), plus attrs ``tau`` (Pa)
         and ``yield_height`` (m, height of the plane mu = mu_s; 0 if the whole layer flows).
+
+    max_iterations bounds the shear-stress root search (brentq iterations).
 
     Raises:
         OutOfRangeError: the wall speed needs a stress ratio beyond mu_2 or an inertial number
@@ -115,7 +118,7 @@ def solve(geometry: PlanarShear, params: LocalMuIParameters, n_grid: int = 200, 
                                   "beyond the range of the nu(I) law", case)
     try:
         i_top, info = brentq(speed_mismatch, lo, hi, xtol=1e-300, rtol=4 * np.finfo(float).eps,
-                             maxiter=200, full_output=True)
+                             maxiter=max_iterations, full_output=True, disp=False)
     except ValueError as exc:
         raise ConvergenceError(MODEL, np.nan, f"shear-stress root failed: {exc}", case) from exc
     residual = abs(speed_mismatch(i_top))

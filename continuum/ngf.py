@@ -65,11 +65,14 @@ def fluidity_profile(z: np.ndarray, mu: np.ndarray, p: np.ndarray, params: NGFPa
     return solve_banded((1, 1), bands, rhs, overwrite_ab=True, overwrite_b=True, check_finite=False)
 
 
-def solve(geometry: PlanarShear, params: NGFParameters, n_grid: int = 200, case: str | None = None) -> xr.Dataset:
+def solve(geometry: PlanarShear, params: NGFParameters, n_grid: int = 200, case: str | None = None,
+          max_iterations: int = 200) -> xr.Dataset:
     """Steady velocity-driven planar shear with NGF.
 
     Returns the contract's Dataset with u_x, shear_rate, p, mu (and ``fluidity``) on a uniform
     grid of n_grid nodes; attrs include ``A``, ``tau`` (Pa), ``nu_weight``.
+
+    max_iterations bounds the shear-stress root search (brentq iterations).
 
     Raises:
         ConvergenceError: the shear-stress root did not reach its tolerance.
@@ -103,7 +106,7 @@ def solve(geometry: PlanarShear, params: NGFParameters, n_grid: int = 200, case:
             raise OutOfRangeError(MODEL, f"no shear stress below 10 P_wall drives the wall at {V} m/s", case)
     try:
         tau, info = brentq(speed_mismatch, lo, hi, xtol=1e-300, rtol=4 * np.finfo(float).eps,
-                           maxiter=200, full_output=True)
+                           maxiter=max_iterations, full_output=True, disp=False)
     except ValueError as exc:
         raise ConvergenceError(MODEL, np.nan, f"shear-stress root failed: {exc}", case) from exc
     mu, gammadot = profile(tau)

@@ -61,10 +61,14 @@ def creep_profile(z: np.ndarray, z_star: float, depth: float, length: float,
 
 def solve(geometry: PlanarShear, params: VolumeAveragedParameters, n_grid: int = 200,
           nu_initial: InitialPacking = None, max_step: float = 2e-3,
-          case: str | None = None) -> xr.Dataset:
+          case: str | None = None, max_iterations: int = 20000) -> xr.Dataset:
     """Steady velocity-driven planar shear with the volume-averaged model, reached by evolving the
     packing from ``nu_initial`` (callable nu(z) on the initial layer, (z, nu) samples, or None for
     a critical packing at every depth).
+
+    Args (besides the above):
+        max_step: largest change of ln nu at the yielding plane per evolution step.
+        max_iterations: evolution steps allowed before ConvergenceError.
 
     Returns:
         Dataset with u_x, shear_rate (unless the yielding plane is undetermined), nu, p, mu on the
@@ -76,7 +80,8 @@ def solve(geometry: PlanarShear, params: VolumeAveragedParameters, n_grid: int =
     z0 = uniform_grid(geometry, n_grid)
     nu0 = initial_packing(z0, geometry, cs.line, nu_initial)
     p = hydrostatic_pressure(z0, nu0, geometry)
-    state = evolve(z0, nu0, p, cs, exponential_spread(params.l), MODEL, max_step=max_step, case=case)
+    state = evolve(z0, nu0, p, cs, exponential_spread(params.l), MODEL, max_step=max_step,
+                   max_events=max_iterations, case=case)
     fields = {"nu": state.nu, "p": p, "mu": state.tau / p}
     final_depth = float(state.z[-1])
     band_height = -1.0

@@ -82,9 +82,12 @@ def evolve(z0: np.ndarray, nu0: np.ndarray, p: np.ndarray, params: CriticalState
             # yielding plane goes to its critical packing.
             nu[ties] = line.nu_cs(p[ties])
             continue
+        weight = spread(z, z[j])
         step = float(np.log(line.nu_cs(p[j]) / nu[j]))
-        step = float(np.clip(step, -max_step, max_step))
-        nu = nu * np.exp(step * spread(z, z[j]))
+        if np.count_nonzero(weight > 1e-12) > 1:
+            # the neighbours change too: take small steps so the weakest plane is re-selected
+            step = float(np.clip(step, -max_step, max_step))
+        nu = nu * np.exp(step * weight)
         z = cumulative_trapezoid(1.0 / nu, volume)
     raise ConvergenceError(model, residual, f"no steady state after {max_events} yield events", case)
 
