@@ -5,6 +5,12 @@ solver or a coarse-graining kernel fails the test where it happens instead of pr
 """
 from __future__ import annotations
 
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -15,3 +21,28 @@ np.seterr(all="raise")
 def rng() -> np.random.Generator:
     """A seeded generator: every random test input is reproducible."""
     return np.random.default_rng(20261123)
+
+
+REPO = Path(__file__).resolve().parent.parent
+
+
+@pytest.fixture(scope="session")
+def reduced_results(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Output root of one run of the real workflow on config/ci.yaml, with the real LIGGGHTS.
+
+    Runs once per test session (a few minutes on 2 cores); every test that needs DEM output,
+    fields or the report reads from it.
+    """
+    if shutil.which("liggghts") is None:
+        pytest.fail("LIGGGHTS is not installed: run scripts/install.sh (the workflow test needs the real binary)")
+    out = tmp_path_factory.mktemp("reduced") / "results"
+    cmd = [
+        sys.executable, "-m", "snakemake", "--cores", str(os.cpu_count() or 1),
+        "--configfile", "config/ci.yaml", "--config", f"output_root={out}",
+        "--directory", str(REPO), "--snakefile", str(REPO / "Snakefile"),
+    ]
+    proc = subprocess.run(cmd, cwd=REPO, capture_output=True, text=True, check=False)
+    if proc.returncode != 0:
+        logs = "\n".join(f"--- {p}\n{p.read_text()[-3000:]}" for p in sorted(out.glob("logs/**/*.log")))
+        pytest.fail(f"reduced workflow failed (exit {proc.returncode}):\n{proc.stderr[-5000:]}\n{logs}")
+    return out
