@@ -1,14 +1,181 @@
-"""Cosserat plasticity (Mohan, Rao & Nott 2002) -- placeholder until implemented."""
+"""Cosserat plasticity (Mohan, Nott & Rao 1999; Mohan, Rao & Nott 2002; seed eqs 5-6), planar 1D.
+
+Fields: velocity u(z) e_x, grain spin omega(z) e_y, shear stresses on z-planes s + t (uniform,
+= tau) and on x-planes s - t (s symmetric, t antisymmetric part), couple stress M = M_zy.
+Steady flow is at the critical state (alpha = 1: nu = nu_cs(p), yield stress Y = sin_phi p).
+The derivation is in docs/models.md ("Cosserat"); the equations solved are
+
+    yield:      s^2 + beta t^2 + M^2 / l^2 = Y(z)^2,       s = tau - t
+    moments:    dM/dz = -2 t
+    flow rule:  gammadot = lambda s / Y,  gammadot - 2 omega = lambda beta t / Y,
+                d omega / dz = lambda M / (l^2 Y)
+
+so t(M, z) is the small root of (1 + beta) t^2 - 2 tau t + tau^2 - Y^2 + M^2 / l^2 = 0, the
+couple stress obeys the Riccati equation dM/dz = -2 t(M, z), and with A = 1 - beta t / s and
+q = gammadot A = 2 omega the kinematics reduce to d ln q / dz = 2 M / (l^2 s A).
+
+Walls: no slip, and the grain spin is chi_w times the vorticity gammadot / 2 (``wall_spin_ratio``),
+i.e. A = chi_w, which fixes t and s at the wall and, by the yield condition, |M|. The couple stress
+is positive at the bottom wall and negative at the top wall (the two walls exert the same couple
+traction on the layer; in a uniform layer the solution is then symmetric). tau is the root of
+M(H; tau) = M_top(tau) with M integrated upwards from the bottom wall (trapezoidal rule, Newton
+on each step: the direction in which the bulk branch M = l sqrt(Y^2 - tau^2) is stable).
+In the bulk the shear rate decays downwards with length xi = l mu / (2 sqrt(sin_phi^2 - mu^2)).
+"""
 from __future__ import annotations
 
-import xarray as xr
+import math
+import time
 
-from .errors import ContinuumError
+import numpy as np
+import xarray as xr
+from scipy.optimize import brentq
+
+from .critical_state import parameter_attrs
+from .errors import ConvergenceError, OutOfRangeError
 from .geometry import PlanarShear
+from .grid import cumulative_trapezoid, hydrostatic_pressure, uniform_grid
+from .packing import critical_packing
 from .parameters import CosseratParameters
+from .solution import build_solution
 
 MODEL = "cosserat"
+_RTOL = 1e-10
 
 
-def solve(geometry: PlanarShear, params: CosseratParameters, n_grid: int = 200, case: str | None = None) -> xr.Dataset:
-    raise ContinuumError("cosserat solver not implemented yet")
+class _Inadmissible(Exception):
+    """The couple stress left the range where a stress state on the yield surface exists."""
+
+
+def _wall_state(tau: float, Y: float, params: CosseratParameters) -> tuple[float, float, float]:
+    """(s, t, |M|) at a wall where A = 1 - beta t / s = chi_w."""
+    beta, chi = params.beta, params.wall_spin_ratio
+    t = tau * (1.0 - chi) / (beta + 1.0 - chi)
+    s = tau - t
+    m2 = params.l**2 * (Y**2 - s**2 - beta * t**2)
+    if m2 < 0.0:
+        raise _Inadmissible
+    return s, t, math.sqrt(m2)
+
+
+def _antisymmetric(tau: float, M: np.ndarray | float, Y: np.ndarray | float, params: CosseratParameters):
+    """Small root t of (1 + beta) t^2 - 2 tau t + tau^2 - Y^2 + M^2 / l^2 = 0 and sqrt(disc)."""
+    beta, l = params.beta, params.l
+    disc = (1.0 + beta) * (Y**2 - M**2 / l**2) - beta * tau**2
+    root = np.sqrt(np.maximum(disc, 0.0))
+    return (tau - root) / (1.0 + beta), root, disc
+
+
+def _shoot(tau: float, z: np.ndarray, Y: np.ndarray, params: CosseratParameters) -> np.ndarray:
+    """Couple stress M(z) integrated upwards from the bottom wall (implicit trapezoidal rule)."""
+    beta, l2 = params.beta, params.l**2
+    onep = 1.0 + beta
+    Ys = Y.tolist()
+    h = float(z[1] - z[0])
+    out = np.empty(z.size)
+    _, _, m = _wall_state(tau, Ys[0], params)
+    out[0] = m
+
+    def rhs(mv: float, y: float) -> tuple[float, float]:
+        disc = onep * (y * y - mv * mv / l2) - beta * tau * tau
+        if disc <= 0.0:
+            raise _Inadmissible
+        root = math.sqrt(disc)
+        return -2.0 * (tau - root) / onep, -2.0 * mv / (l2 * root)
+
+    f0, _ = rhs(m, Ys[0])
+    k = h / onep
+    a = 1.0 + k * k * onep / l2
+    for j in range(1, z.size):
+        y1 = Ys[j]
+        # Trapezoidal step M1 = m + h/2 (f0 + f(M1)) with f = -2 (tau - sqrt(disc)) / (1 + beta):
+        # M1 - c = k sqrt(disc(M1)), c = m + h f0 / 2 - k tau, which squared is a quadratic in
+        # M1. Its roots with M1 >= c solve the step; take the one nearest the explicit predictor.
+        c = m + 0.5 * h * f0 - k * tau
+        big_r = onep * y1 * y1 - beta * tau * tau
+        disc_q = c * c - a * (c * c - k * k * big_r)
+        if disc_q < 0.0:
+            raise _Inadmissible
+        sq = math.sqrt(disc_q)
+        roots = [r for r in ((c - sq) / a, (c + sq) / a) if r - c >= -1e-14 * abs(c)]
+        if not roots:
+            raise _Inadmissible
+        predictor = m + h * f0
+        m = min(roots, key=lambda r: abs(r - predictor))
+        f0, _ = rhs(m, y1)
+        out[j] = m
+    return out
+
+
+def solve(geometry: PlanarShear, params: CosseratParameters, n_grid: int = 400, case: str | None = None,
+          max_iterations: int = 200) -> xr.Dataset:
+    """Steady velocity-driven planar shear with Cosserat plasticity at the critical state.
+
+    Returns the contract's Dataset with u_x, shear_rate, nu (= nu_cs(p)), p, mu and ``spin``
+    on a uniform grid; attrs ``l`` (m), ``beta``, ``wall_spin_ratio``, ``tau`` (Pa).
+    """
+    t0 = time.perf_counter()
+    cs = params.critical
+    z = uniform_grid(geometry, n_grid)
+    nu = critical_packing(z, geometry, cs.line)
+    p = hydrostatic_pressure(z, nu, geometry)
+    Y = cs.sin_phi * p
+    V = geometry.wall_speed
+    if V <= 0.0:
+        raise OutOfRangeError(MODEL, "a layer at rest has no unique shear stress", case)
+
+    def mismatch(tau: float) -> float:
+        """M(H) - M_top in units of l Y(H); inadmissible shots count as overshooting (M too low)."""
+        scale = params.l * Y[-1]
+        try:
+            _, _, m_top = _wall_state(tau, Y[-1], params)
+            m = _shoot(tau, z, Y, params)
+        except _Inadmissible:
+            return -10.0
+        return (m[-1] + m_top) / scale
+
+    # Bracket: at tau well under Y_top the bulk branch reaches the top with M > 0 (positive
+    # mismatch); the largest admissible tau has the top wall state at the edge of the yield
+    # surface.
+    q = (params.beta**2 + params.beta * (1 - params.wall_spin_ratio) ** 2) / (params.beta + 1 - params.wall_spin_ratio) ** 2
+    tau_max = Y[-1] / math.sqrt(q) * (1.0 - 1e-12)
+    lo, hi = 0.5 * Y[-1], tau_max
+    f_lo = mismatch(lo)
+    while f_lo <= 0.0:
+        lo *= 0.5
+        f_lo = mismatch(lo)
+        if lo < 1e-6 * Y[-1]:
+            raise ConvergenceError(MODEL, np.nan, "could not bracket the shear stress", case)
+    if mismatch(hi) >= 0.0:
+        raise ConvergenceError(MODEL, np.nan, "no shear stress meets the top-wall spin condition", case)
+    tau, info = brentq(mismatch, lo, hi, xtol=1e-300, rtol=4 * np.finfo(float).eps,
+                       maxiter=max_iterations, full_output=True, disp=False)
+    residual = abs(mismatch(tau))
+    if not info.converged or residual > 1e-8:
+        raise ConvergenceError(MODEL, residual, "couple-stress boundary conditions not met", case)
+
+    M = _shoot(tau, z, Y, params)
+    t, _, _ = _antisymmetric(tau, M, Y, params)
+    s = tau - t
+    A = 1.0 - params.beta * t / s
+    if np.any(A <= 0.0) or np.any(s <= 0.0):
+        raise ConvergenceError(MODEL, residual, "spin ratio A = 1 - beta t / s left (0, inf)", case)
+    log_q = cumulative_trapezoid(2.0 * M / (params.l**2 * s * A), z)
+    x = log_q - log_q[-1]
+    # below e^-600 of the top value the creep is set to exactly 0 (no subnormal underflow)
+    shape = np.where(x < -600.0, 0.0, np.exp(np.maximum(x, -600.0))) / A
+    scale = V / np.trapezoid(shape, z)
+    gammadot = scale * shape
+    u = cumulative_trapezoid(gammadot, z)
+    residual_u = abs(u[-1] / V - 1.0)
+    if residual_u > _RTOL:
+        raise ConvergenceError(MODEL, residual_u, "wall speed not met", case)
+    attrs = parameter_attrs(cs)
+    attrs.update({"l": params.l, "beta": params.beta, "wall_spin_ratio": params.wall_spin_ratio})
+    return build_solution(
+        MODEL, geometry, z,
+        {"u_x": u, "shear_rate": gammadot, "nu": nu, "p": p, "mu": tau / p, "spin": 0.5 * gammadot * A},
+        converged=True, iterations=int(info.iterations), residual=residual,
+        solve_seconds=time.perf_counter() - t0, n_grid=n_grid, parameters=attrs,
+        extra_attrs={"tau": float(tau)},
+    )
