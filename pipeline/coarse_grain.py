@@ -1,0 +1,494 @@
+"""Coarse-grain DEM particles and contacts into continuum fields (Goldhirsch 2010; Weinhart et al. 2012).
+
+Conventions (docs/physics.md): compressive stress positive; flow x, gradient z (up), vorticity y.
+With the product kernel of :mod:`pipeline.kernels` integrated exactly over the periodic x and y
+(profiles, per unit area ``A = Lx Ly``) or over y (x-z fields, per unit length ``Ly``):
+
+- density ``rho = sum_i m_i phi(r - r_i)``; solid fraction ``nu = sum_i V_i phi`` (``V = 4/3 pi R^3``);
+- velocity ``u = <sum m v phi> / <rho>`` (momentum over density, both time-averaged: Favre mean);
+- kinetic stress ``<sum m v v phi> - <rho> u u``: fluctuations about the time-averaged local mean
+  velocity, so that the time-averaged fields obey the time-averaged momentum balance;
+- contact stress ``sum_c f_c (x) r_c * integral_0^1 phi(r - r_1 + s r_c) ds`` with ``f_c`` the
+  force on particle 1 and ``r_c = r_1 - r_2`` (minimum image across periodic faces), summed over
+  every contact in the dump, flowing-wall contacts included; the line integral is exact (an erf
+  or polynomial difference, :meth:`Kernel.segment`). ``sigma_ab = sum f_a r_b ...`` so that the
+  momentum balance reads ``d sigma_xz / dz = 0``, ``d sigma_zz / dz = -rho g`` in steady planar
+  flow. With this sign ``sigma_xz`` is negative where ``du_x/dz > 0``.
+- ``p = trace / 3``; ``mu = |sigma_xz| / p``; ``shear_rate = du_x/dz`` differentiated exactly
+  (the kernel derivative applied to the time-averaged momentum and density); ``I = |shear_rate|
+  d / sqrt(p / rho_s)``.
+
+Errors: the snapshots in the window are split into ``blocks`` contiguous blocks (default 5);
+every field is computed from each block's averages and its standard error is the standard
+deviation of the block values over sqrt(blocks).
+
+CLI::
+
+    python -m pipeline.coarse_grain PARTICLE_DUMP [--contacts CONTACT_DUMP] --out FILE.nc
+        [--width W] [--kernel gaussian|lucy] [--bins N | --dx DX] [--axis z | --plane xz] [--t-start T]
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from pipeline.dumps import Dump, DumpError, read_contacts, read_particles
+from pipeline.kernels import KERNELS, Kernel, segment_2d
+
+#: Raw per-snapshot sums (per unit area or length) that all fields derive from.
+SUMS = ("mass", "mass_body", "volume", "mom_x", "mom_y", "mom_z", "mvv_xx", "mvv_yy", "mvv_zz", "mvv_xz",
+        "dmass", "dmom_x", "c_xx", "c_yy", "c_zz", "c_xz", "c_zx")
+_PARTICLE_SUMS = SUMS[:10]
+
+#: Output fields: (units, long name). Every field also gets an ``_err`` companion.
+FIELDS: dict[str, tuple[str, str]] = {
+    "nu": ("1", "solid fraction"),
+    "rho": ("kg m-3", "mass density (all grains)"),
+    "rho_body": ("kg m-3", "mass density of the grains gravity acts on"),
+    "u_x": ("m s-1", "velocity along x (flow)"),
+    "u_z": ("m s-1", "velocity along z (gradient, up)"),
+    "shear_rate": ("s-1", "shear rate du_x/dz (exact derivative of the coarse-grained u_x)"),
+    "sigma_xx": ("Pa", "normal stress xx, contact plus kinetic, compressive positive"),
+    "sigma_yy": ("Pa", "normal stress yy, contact plus kinetic, compressive positive"),
+    "sigma_zz": ("Pa", "normal stress zz, contact plus kinetic, compressive positive"),
+    "sigma_xz": ("Pa", "shear stress xz (x force across z planes), contact plus kinetic, compressive-positive sign"),
+    "sigma_xz_contact": ("Pa", "contact part of sigma_xz"),
+    "sigma_xz_kinetic": ("Pa", "kinetic part of sigma_xz"),
+    "sigma_zx_contact": ("Pa", "contact part of sigma_zx (z force across x planes; equals sigma_xz_contact on average)"),
+    "sigma_zz_kinetic": ("Pa", "kinetic part of sigma_zz"),
+    "p": ("Pa", "mean normal stress, trace / 3"),
+    "mu": ("1", "stress ratio |sigma_xz| / p"),
+    "I": ("1", "inertial number |shear_rate| d / sqrt(p / rho_s)"),
+}
+
+
+class CoarseGrainError(ValueError):
+    """Inputs the coarse-graining cannot use (empty window, bad grid, missing columns)."""
+
+
+@dataclass(frozen=True)
+class Grid:
+    """Where fields are evaluated: z centres (m), and for x-z fields x centres (periodic, m)."""
+
+    z: np.ndarray
+    x: np.ndarray | None = None
+
+    @property
+    def dz(self) -> float:
+        return float(self.z[1] - self.z[0]) if self.z.size > 1 else 1.0
+
+    @property
+    def dx(self) -> float:
+        assert self.x is not None
+        return float(self.x[1] - self.x[0]) if self.x.size > 1 else 1.0
+
+
+def profile_grid(z_lo: float, z_hi: float, bins: int | None = None, dz: float | None = None) -> Grid:
+    """Uniform z centres from ``z_lo`` to ``z_hi`` (inclusive): ``bins`` points or spacing ``dz``."""
+    if bins is None:
+        if dz is None or dz <= 0:
+            raise CoarseGrainError("give a positive bin count or spacing")
+        bins = max(2, int(round((z_hi - z_lo) / dz)) + 1)
+    if bins < 2 or not z_hi > z_lo:
+        raise CoarseGrainError(f"need at least 2 bins over a positive range, got {bins} over [{z_lo}, {z_hi}]")
+    return Grid(np.linspace(z_lo, z_hi, bins))
+
+
+def plane_grid(x_lo: float, lx: float, z_lo: float, z_hi: float, dx: float, bins_z: int | None = None) -> Grid:
+    """x-z grid: x centres cover the periodic length ``lx`` with a spacing near ``dx``."""
+    nx = max(2, int(round(lx / dx)))
+    x = x_lo + (np.arange(nx) + 0.5) * (lx / nx)
+    return Grid(profile_grid(z_lo, z_hi, bins=bins_z, dz=None if bins_z else dx).z, x)
+
+
+# ---------------------------------------------------------------------------------------------
+# One snapshot
+
+
+@dataclass
+class SnapshotData:
+    """Arrays of one snapshot: particle and contact quantities (SI)."""
+
+    pos: np.ndarray  # (N, 3) m
+    vel: np.ndarray  # (N, 3) m/s
+    mass: np.ndarray  # (N,) kg
+    volume: np.ndarray  # (N,) m3
+    body: np.ndarray  # (N,) bool: gravity acts on the grain
+    r1: np.ndarray  # (M, 3) m, position of particle 1
+    branch: np.ndarray  # (M, 3) m, r1 - r2 with the minimum image across periodic faces
+    force: np.ndarray  # (M, 3) N, on particle 1
+    box: np.ndarray  # (3, 2) m
+    periodic: tuple[bool, bool, bool]
+
+
+def snapshot(particles: Dump, contacts: Dump | None, s: int, cs: int | None = None,
+             body_types: Sequence[int] | None = (1,)) -> SnapshotData:
+    """Arrays of particle snapshot ``s`` and contact snapshot ``cs`` (default: same timestep)."""
+    rows = particles.rows(s)
+    cols = particles.columns
+    pos = rows[:, [cols.index("x"), cols.index("y"), cols.index("z")]]
+    vel = rows[:, [cols.index("vx"), cols.index("vy"), cols.index("vz")]]
+    mass = rows[:, cols.index("mass")]
+    radius = rows[:, cols.index("radius")]
+    if body_types is not None and "type" in cols:
+        body = np.isin(rows[:, cols.index("type")].astype(np.int64), np.asarray(body_types))
+    else:
+        body = np.ones(rows.shape[0], dtype=bool)
+    box = particles.boxes[s]
+    periodic = tuple(flag.startswith("p") for flag in (particles.boundary + ("pp", "pp", "ff"))[:3])
+    if contacts is not None:
+        if cs is None:
+            match = np.nonzero(contacts.timesteps == particles.timesteps[s])[0]
+            if match.size == 0:
+                raise CoarseGrainError(f"no contact snapshot at step {particles.timesteps[s]} "
+                                       f"({', '.join(contacts.sources)})")
+            cs = int(match[0])
+        crow = contacts.rows(cs)
+        cc = contacts.columns
+        r1 = crow[:, [cc.index("x1"), cc.index("y1"), cc.index("z1")]]
+        r2 = crow[:, [cc.index("x2"), cc.index("y2"), cc.index("z2")]]
+        force = crow[:, [cc.index("fx"), cc.index("fy"), cc.index("fz")]]
+        branch = r1 - r2
+        for axis in range(3):
+            if periodic[axis]:
+                length = box[axis, 1] - box[axis, 0]
+                branch[:, axis] -= length * np.round(branch[:, axis] / length)
+    else:
+        r1 = branch = force = np.zeros((0, 3))
+    return SnapshotData(pos, vel, mass, 4.0 / 3.0 * math.pi * radius**3, body, r1, branch, force, box, periodic)
+
+
+def _window(start: np.ndarray, span: float, origin: float, step: float, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Grid indices (N, W) whose centres may lie in [start, start + span], and a validity mask."""
+    first = np.ceil((start - origin) / step).astype(np.int64)
+    width = int(math.floor(span / step)) + 2
+    idx = first[:, None] + np.arange(width)[None, :]
+    return idx, (idx >= 0) & (idx < n)
+
+
+def _bincount(idx: np.ndarray, weights: np.ndarray, n: int) -> np.ndarray:
+    return np.bincount(idx, weights=weights, minlength=n)[:n]
+
+
+def profile_sums(data: SnapshotData, kernel: Kernel, grid: Grid) -> np.ndarray:
+    """The :data:`SUMS` of one snapshot on a z profile, per unit area: array (len(SUMS), nz)."""
+    nz, z0, dz = grid.z.size, float(grid.z[0]), grid.dz
+    area = float(np.prod(data.box[:2, 1] - data.box[:2, 0]))
+    c = kernel.cutoff
+    out = np.zeros((len(SUMS), nz))
+    if data.mass.size:
+        idx, ok = _window(data.pos[:, 2] - c, 2 * c, z0, dz, nz)
+        u = z0 + idx * dz - data.pos[:, 2:3]
+        phi = np.where(ok, kernel.pdf(u), 0.0)
+        dphi = np.where(ok, kernel.dpdf(u), 0.0)
+        flat = np.where(ok, idx, nz).ravel()  # invalid entries land in a discarded extra bin
+        m, v = data.mass, data.vel
+        weights = {
+            "mass": m, "mass_body": m * data.body, "volume": data.volume,
+            "mom_x": m * v[:, 0], "mom_y": m * v[:, 1], "mom_z": m * v[:, 2],
+            "mvv_xx": m * v[:, 0] ** 2, "mvv_yy": m * v[:, 1] ** 2, "mvv_zz": m * v[:, 2] ** 2,
+            "mvv_xz": m * v[:, 0] * v[:, 2],
+        }
+        for name, wgt in weights.items():
+            out[SUMS.index(name)] = _bincount(flat, (phi * wgt[:, None]).ravel(), nz + 1)[:nz]
+        out[SUMS.index("dmass")] = _bincount(flat, (dphi * m[:, None]).ravel(), nz + 1)[:nz]
+        out[SUMS.index("dmom_x")] = _bincount(flat, (dphi * (m * v[:, 0])[:, None]).ravel(), nz + 1)[:nz]
+    if data.force.shape[0]:
+        z1 = data.r1[:, 2]
+        z2 = z1 - data.branch[:, 2]
+        lo = np.minimum(z1, z2)
+        span = float(np.max(np.abs(data.branch[:, 2]))) + 2 * c
+        idx, ok = _window(lo - c, span, z0, dz, nz)
+        zk = z0 + idx * dz
+        weight = np.where(ok, kernel.segment(zk - z1[:, None], zk - z2[:, None]), 0.0)
+        flat = np.where(ok, idx, nz).ravel()
+        f, r = data.force, data.branch
+        for name, a, b in (("c_xx", 0, 0), ("c_yy", 1, 1), ("c_zz", 2, 2), ("c_xz", 0, 2), ("c_zx", 2, 0)):
+            out[SUMS.index(name)] = _bincount(flat, (weight * (f[:, a] * r[:, b])[:, None]).ravel(), nz + 1)[:nz]
+    return out / area
+
+
+def plane_sums(data: SnapshotData, kernel: Kernel, grid: Grid) -> np.ndarray:
+    """The :data:`SUMS` of one snapshot on an x-z grid, per unit length in y: (len(SUMS), nx, nz).
+
+    x is periodic (the grid spans the box); the kernel's support must fit in the box."""
+    assert grid.x is not None
+    nx, nz = grid.x.size, grid.z.size
+    x0, dx, z0, dz = float(grid.x[0]), grid.dx, float(grid.z[0]), grid.dz
+    lx = float(data.box[0, 1] - data.box[0, 0])
+    ly = float(data.box[1, 1] - data.box[1, 0])
+    c = kernel.cutoff
+    out = np.zeros((len(SUMS), nx * nz + 1))
+    if not data.periodic[0]:
+        raise CoarseGrainError("x-z fields need a periodic x direction")
+
+    def particle_part() -> None:
+        ix, _ = _window(data.pos[:, 0] - c, 2 * c, x0, dx, 10**18)
+        if 2 * c >= lx:
+            raise CoarseGrainError(f"kernel support 2 x {c:.3g} m exceeds the periodic length {lx:.3g} m")
+        ux = x0 + ix * dx - data.pos[:, 0:1]
+        iz, okz = _window(data.pos[:, 2] - c, 2 * c, z0, dz, nz)
+        uz = z0 + iz * dz - data.pos[:, 2:3]
+        px = kernel.pdf(ux)
+        pz = np.where(okz, kernel.pdf(uz), 0.0)
+        dpz = np.where(okz, kernel.dpdf(uz), 0.0)
+        flat = np.where(okz[:, None, :], (ix % nx)[:, :, None] * nz + iz[:, None, :], nx * nz).reshape(len(ix), -1)
+        phi = (px[:, :, None] * pz[:, None, :]).reshape(len(ix), -1)
+        dphi = (px[:, :, None] * dpz[:, None, :]).reshape(len(ix), -1)
+        m, v = data.mass, data.vel
+        weights = {
+            "mass": m, "mass_body": m * data.body, "volume": data.volume,
+            "mom_x": m * v[:, 0], "mom_y": m * v[:, 1], "mom_z": m * v[:, 2],
+            "mvv_xx": m * v[:, 0] ** 2, "mvv_yy": m * v[:, 1] ** 2, "mvv_zz": m * v[:, 2] ** 2,
+            "mvv_xz": m * v[:, 0] * v[:, 2],
+        }
+        for name, wgt in weights.items():
+            out[SUMS.index(name)] = _bincount(flat.ravel(), (phi * wgt[:, None]).ravel(), nx * nz + 1)
+        out[SUMS.index("dmass")] = _bincount(flat.ravel(), (dphi * m[:, None]).ravel(), nx * nz + 1)
+        out[SUMS.index("dmom_x")] = _bincount(flat.ravel(), (dphi * (m * v[:, 0])[:, None]).ravel(), nx * nz + 1)
+
+    def contact_part(sl: slice) -> None:
+        r1, branch, f = data.r1[sl], data.branch[sl], data.force[sl]
+        x1, z1 = r1[:, 0], r1[:, 2]
+        x2, z2 = x1 - branch[:, 0], z1 - branch[:, 2]  # x2 unwrapped next to x1
+        spanx = float(np.max(np.abs(branch[:, 0]))) + 2 * c
+        spanz = float(np.max(np.abs(branch[:, 2]))) + 2 * c
+        ix, _ = _window(np.minimum(x1, x2) - c, spanx, x0, dx, 10**18)
+        if spanx >= lx:
+            raise CoarseGrainError(f"kernel support plus branch ({spanx:.3g} m) exceeds the periodic length {lx:.3g} m")
+        iz, okz = _window(np.minimum(z1, z2) - c, spanz, z0, dz, nz)
+        xk = (x0 + ix * dx)[:, :, None]
+        zk = (z0 + iz * dz)[:, None, :]
+        shape = (len(ix), ix.shape[1], iz.shape[1])
+        weight = segment_2d(kernel, np.broadcast_to(xk - x1[:, None, None], shape),
+                            np.broadcast_to(zk - z1[:, None, None], shape),
+                            np.broadcast_to(xk - x2[:, None, None], shape),
+                            np.broadcast_to(zk - z2[:, None, None], shape))
+        weight = np.where(okz[:, None, :], weight, 0.0).reshape(len(ix), -1)
+        flat = np.where(okz[:, None, :], (ix % nx)[:, :, None] * nz + iz[:, None, :], nx * nz).reshape(len(ix), -1)
+        for name, a, b in (("c_xx", 0, 0), ("c_yy", 1, 1), ("c_zz", 2, 2), ("c_xz", 0, 2), ("c_zx", 2, 0)):
+            out[SUMS.index(name)] += _bincount(flat.ravel(), (weight * (f[:, a] * branch[:, b])[:, None]).ravel(),
+                                               nx * nz + 1)
+
+    if data.mass.size:
+        particle_part()
+    # Chunks bound the (contacts x window) temporaries to a few tens of MB.
+    for start in range(0, data.force.shape[0], 5000):
+        contact_part(slice(start, start + 5000))
+    return out[:, :nx * nz].reshape(len(SUMS), nx, nz) / ly
+
+
+# ---------------------------------------------------------------------------------------------
+# Fields from sums
+
+
+def derive(sums: np.ndarray, d: float, rho_s: float) -> dict[str, np.ndarray]:
+    """Fields (see :data:`FIELDS`) from time-averaged :data:`SUMS` (first axis)."""
+    s = {name: sums[k] for k, name in enumerate(SUMS)}
+    rho = s["mass"]
+    positive = rho > 0
+
+    def ratio(num: np.ndarray, den: np.ndarray, ok: np.ndarray) -> np.ndarray:
+        return np.divide(num, den, out=np.full(num.shape, np.nan), where=ok)
+
+    u = {a: ratio(s[f"mom_{a}"], rho, positive) for a in "xyz"}
+    kinetic = {ab: s[f"mvv_{ab}"] - np.where(positive, rho * u[ab[0]] * u[ab[1]], 0.0) for ab in ("xx", "yy", "zz", "xz")}
+    sigma = {ab: s[f"c_{ab}"] + kinetic[ab] for ab in ("xx", "yy", "zz", "xz")}
+    p = (sigma["xx"] + sigma["yy"] + sigma["zz"]) / 3.0
+    shear_rate = ratio(s["dmom_x"] * rho - s["mom_x"] * s["dmass"], rho * rho, positive)
+    loaded = p > 0
+    mu = ratio(np.abs(sigma["xz"]), p, loaded)
+    root = np.sqrt(np.where(loaded, p, 1.0) / rho_s)
+    inertial = np.where(loaded, np.abs(np.nan_to_num(shear_rate)) * d / root, np.nan)
+    inertial = np.where(np.isnan(shear_rate), np.nan, inertial)
+    return {
+        "nu": s["volume"], "rho": rho, "rho_body": s["mass_body"], "u_x": u["x"], "u_z": u["z"],
+        "shear_rate": shear_rate,
+        "sigma_xx": sigma["xx"], "sigma_yy": sigma["yy"], "sigma_zz": sigma["zz"], "sigma_xz": sigma["xz"],
+        "sigma_xz_contact": s["c_xz"], "sigma_xz_kinetic": kinetic["xz"], "sigma_zx_contact": s["c_zx"],
+        "sigma_zz_kinetic": kinetic["zz"], "p": p, "mu": mu, "I": inertial,
+    }
+
+
+def block_average(stack: np.ndarray, blocks: int, d: float, rho_s: float) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray], int]:
+    """Fields of the mean over snapshots (axis 0) and their block standard errors.
+
+    Returns (fields, errors, blocks used). With fewer than 2 snapshots the errors are NaN."""
+    n = stack.shape[0]
+    fields = derive(stack.mean(axis=0), d, rho_s)
+    used = min(blocks, n)
+    if used < 2:
+        return fields, {k: np.full_like(v, np.nan) for k, v in fields.items()}, used
+    parts = np.array_split(np.arange(n), used)
+    per_block = [derive(stack[idx].mean(axis=0), d, rho_s) for idx in parts]
+    errors = {}
+    for name in fields:
+        values = np.stack([b[name] for b in per_block])
+        finite = np.all(np.isfinite(values), axis=0)
+        safe = np.where(finite, values, 0.0)
+        errors[name] = np.where(finite, safe.std(axis=0, ddof=1) / math.sqrt(used), np.nan)
+    return fields, errors, used
+
+
+@dataclass
+class Result:
+    """Coarse-grained fields with errors, the raw per-snapshot sums and timing."""
+
+    dataset: xr.Dataset
+    sums: np.ndarray  # (snapshots, len(SUMS), *grid shape)
+    seconds: float
+
+
+def coarse_grain(particles: Dump, contacts: Dump | None, kernel: Kernel, grid: Grid, *,
+                 snapshots: np.ndarray | None = None, d: float | None = None, rho_s: float | None = None,
+                 blocks: int = 5, time_step: float | None = None,
+                 body_types: Sequence[int] | None = (1,)) -> Result:
+    """Time-averaged fields over the chosen particle snapshots (default all), on ``grid``.
+
+    ``d`` (m) defaults to the mean particle diameter and ``rho_s`` (kg m-3) to the mean particle
+    density, both from the dump; ``time_step`` (s) converts timesteps to times in the attributes.
+    """
+    t0 = time.perf_counter()
+    chosen = np.arange(len(particles)) if snapshots is None else np.asarray(snapshots, dtype=np.int64)
+    if chosen.size == 0:
+        raise CoarseGrainError("no snapshot in the averaging window")
+    radius = particles.column("radius")
+    if d is None:
+        d = float(2.0 * radius.mean())
+    if rho_s is None:
+        rho_s = float(np.mean(particles.column("mass") / (4.0 / 3.0 * math.pi * radius**3)))
+    plane = grid.x is not None
+    stack = []
+    for s in chosen:
+        data = snapshot(particles, contacts, int(s), body_types=body_types)
+        stack.append(plane_sums(data, kernel, grid) if plane else profile_sums(data, kernel, grid))
+    sums = np.stack(stack)
+    fields, errors, used = block_average(sums, blocks, d, rho_s)
+    dims = ("x", "z") if plane else ("z",)
+    coords = {"z": ("z", grid.z, {"units": "m", "long_name": "height (gradient direction, up)"})}
+    if plane:
+        coords["x"] = ("x", grid.x, {"units": "m", "long_name": "position along the flow (periodic)"})
+    variables = {}
+    for name, (units, long_name) in FIELDS.items():
+        variables[name] = (dims, fields[name], {"units": units, "long_name": long_name})
+        variables[f"{name}_err"] = (dims, errors[name], {"units": units, "long_name": f"standard error of {long_name} "
+                                                          f"from {used} block averages over time"})
+    steps = particles.timesteps[chosen]
+    attrs: dict[str, Any] = {
+        "kernel": kernel.name, "width": kernel.width, "kernel_cutoff": kernel.cutoff,
+        "number_of_snapshots": int(chosen.size), "error_blocks": int(used), "d": d, "rho_s": rho_s,
+        "timestep_first": int(steps[0]), "timestep_last": int(steps[-1]),
+        "geometry": "plane_xz" if plane else "profile_z",
+        "conventions": "compressive stress positive; x flow, z gradient (up), y vorticity; sigma_ab = sum f_a r_b "
+                       "(x force across z planes for sigma_xz); mu = |sigma_xz| / p",
+        "averaging": "profiles integrate x and y exactly over the periodic cell (per unit area); x-z fields integrate y"
+                     if not plane else "fields integrate y exactly (per unit length of the periodic y)",
+        "contacts_included": int(contacts is not None),
+    }
+    if time_step is not None:
+        attrs["time_window"] = np.array([steps[0] * time_step, steps[-1] * time_step])
+        attrs["time_step"] = time_step
+    dataset = xr.Dataset(variables, coords=coords, attrs=attrs)
+    return Result(dataset, sums, time.perf_counter() - t0)
+
+
+# ---------------------------------------------------------------------------------------------
+# Command line
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="python -m pipeline.coarse_grain",
+        description="Coarse-grain LAMMPS/LIGGGHTS text dumps (dump custom particles, dump local contacts) "
+                    "into time-averaged continuum fields with standard errors, written as NetCDF.",
+        epilog="Particle dumps need columns x y z (or xu/xs) vx vy vz radius (or diameter) mass, found by "
+               "name; contact dumps need x1 y1 z1 x2 y2 z2 fx fy fz (force on particle 1), either by name "
+               "or as generic c_ID[k] columns mapped with --contact-columns (default: LIGGGHTS "
+               "pair/gran/local 'pos id force contactPoint delta' order). Stress is compressive positive.")
+    parser.add_argument("particle_dump", type=Path, nargs="+", help="particle dump file(s), joined in time")
+    parser.add_argument("--contacts", type=Path, nargs="+", default=None, help="contact dump file(s)")
+    parser.add_argument("--contact-columns", default=None,
+                        help="physical names of c_ID[1], c_ID[2], ... separated by spaces or commas")
+    parser.add_argument("--out", type=Path, required=True, help="output NetCDF file")
+    parser.add_argument("--width", type=float, default=None, help="kernel width w in m (default: half the mean diameter)")
+    parser.add_argument("--kernel", choices=KERNELS, default="gaussian", help="gaussian (cut at 3 w) or lucy")
+    bins = parser.add_mutually_exclusive_group()
+    bins.add_argument("--bins", type=int, default=None, help="number of z points")
+    bins.add_argument("--dx", type=float, default=None, help="grid spacing in m (default w / 2)")
+    geom = parser.add_mutually_exclusive_group()
+    geom.add_argument("--axis", choices=("z",), default="z", help="profile along z (x and y integrated)")
+    geom.add_argument("--plane", choices=("xz",), default=None, help="2D field in x-z (y integrated)")
+    parser.add_argument("--t-start", type=float, default=None, help="first time to average from (s; needs --time-step)")
+    parser.add_argument("--time-step", type=float, default=None, help="DEM time step in s (timestep -> time)")
+    parser.add_argument("--blocks", type=int, default=5, help="blocks for the standard errors (default 5)")
+    parser.add_argument("--body-types", default="all",
+                        help="particle types gravity acts on, for rho_body (comma list, or 'all')")
+    parser.add_argument("--rho-s", type=float, default=None, help="particle density (default: from mass and radius)")
+    parser.add_argument("--d", type=float, default=None, help="particle diameter for I (default: mean diameter)")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    try:
+        particles = read_particles(args.particle_dump)
+        names = None
+        if args.contact_columns:
+            names = [n for n in args.contact_columns.replace(",", " ").split() if n]
+        contacts = read_contacts(args.contacts, names) if args.contacts else None
+        chosen = np.arange(len(particles))
+        if args.t_start is not None:
+            if args.time_step is None:
+                raise CoarseGrainError("--t-start needs --time-step (dumps carry timesteps, not times)")
+            chosen = np.nonzero(particles.timesteps * args.time_step >= args.t_start)[0]
+        radius = particles.column("radius")
+        d = args.d or float(2.0 * radius.mean())
+        width = args.width or 0.5 * d
+        kernel = Kernel(args.kernel, width)
+        z = particles.column("z")
+        dx = args.dx or width / 2.0
+        if args.plane:
+            box = particles.boxes[0]
+            grid = plane_grid(float(box[0, 0]), float(box[0, 1] - box[0, 0]), float(z.min()), float(z.max()), dx,
+                              bins_z=args.bins)
+        else:
+            grid = profile_grid(float(z.min()), float(z.max()), bins=args.bins, dz=dx)
+        body = None if args.body_types == "all" else [int(t) for t in args.body_types.split(",")]
+        result = coarse_grain(particles, contacts, kernel, grid, snapshots=chosen, d=d, rho_s=args.rho_s,
+                              blocks=args.blocks, time_step=args.time_step, body_types=body)
+    except (DumpError, CoarseGrainError, ValueError) as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 1
+    ds = result.dataset
+    ds.attrs["particle_dumps"] = " ".join(str(p) for p in args.particle_dump)
+    ds.attrs["contact_dumps"] = " ".join(str(p) for p in args.contacts or [])
+    write_netcdf(ds, args.out)
+    print(f"{args.out}: {ds.attrs['number_of_snapshots']} snapshots, grid {dict(ds.sizes)}, "
+          f"{result.seconds:.2f} s")
+    return 0
+
+
+def write_netcdf(ds: xr.Dataset, path: Path) -> None:
+    """Write atomically: a temporary name in the same folder, renamed when complete."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.tmp")
+    try:
+        ds.to_netcdf(tmp, engine="netcdf4")
+        tmp.replace(path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
