@@ -6,6 +6,7 @@ invalid config stops everything with a message naming the file, the key and what
 from __future__ import annotations
 
 import hashlib
+import re
 from pathlib import Path
 from typing import Any
 
@@ -65,11 +66,22 @@ def load_config(path: str | Path) -> dict[str, Any]:
     return validate_config(config, str(path))
 
 
+def rheometer_states(case: dict[str, Any]) -> list[tuple[float, float]]:
+    """(target inertial number, wall pressure in Pa) of every rheometer state, in config order.
+
+    The states are ``inertial_numbers`` at ``wall_pressure``, then the ``extra_states`` (other
+    pressures, which the critical-state line p_c(nu) needs).
+    """
+    states = [(float(i), float(case["wall_pressure"])) for i in case["inertial_numbers"]]
+    states += [(float(s["inertial_number"]), float(s["wall_pressure"])) for s in case.get("extra_states", [])]
+    return states
+
+
 def run_ids(case_name: str, case: dict[str, Any]) -> list[str]:
-    """Names of the DEM runs of one case: one per (inertial number, replica) or per replica."""
+    """Names of the DEM runs of one case: one per (state, replica) or per replica."""
     replicas = [f"r{k + 1}" for k in range(case["replicas"])]
     if case_name == "rheometer":
-        return [f"I{inertial:g}-{rep}" for inertial in case["inertial_numbers"] for rep in replicas]
+        return [f"I{i:g}-P{p:g}-{rep}" for i, p in rheometer_states(case) for rep in replicas]
     return replicas
 
 
@@ -78,11 +90,15 @@ def dem_runs(config: dict[str, Any]) -> list[tuple[str, str]]:
     return [(name, run) for name, case in config["cases"].items() for run in run_ids(name, case)]
 
 
-def run_inertial_number(run: str) -> float:
-    """Target inertial number encoded in a rheometer run id (``I0.02-r1`` -> 0.02)."""
-    if not run.startswith("I") or "-" not in run:
-        raise ValueError(f"run id {run!r} does not name an inertial number (expected 'I<value>-r<k>')")
-    return float(run[1:].split("-", 1)[0])
+_RHEOMETER_RUN = re.compile(r"^I([0-9.eE+-]+)-P([0-9.eE+-]+)-r\d+$")
+
+
+def run_state(run: str) -> tuple[float, float]:
+    """Target inertial number and wall pressure (Pa) of a rheometer run id (``I0.02-P200-r1``)."""
+    match = _RHEOMETER_RUN.match(run)
+    if match is None:
+        raise ValueError(f"run id {run!r} is not a rheometer run id (expected 'I<inertial number>-P<pressure>-r<k>')")
+    return float(match.group(1)), float(match.group(2))
 
 
 def derived_seed(master_seed: int, *labels: str) -> int:

@@ -36,7 +36,7 @@ import numpy as np
 import pandas as pd
 
 from pipeline import liggghts_render as render
-from pipeline.config import derived_seed, liggghts_seed, load_config, run_inertial_number
+from pipeline.config import derived_seed, liggghts_seed, load_config, rheometer_states, run_state
 from pipeline.contact_scaling import ContactDesign, design_contacts
 from pipeline.liggghts_log import DEMRunError, check_run, printed_value
 from pipeline.provenance import provenance
@@ -66,10 +66,11 @@ def largest_pressure(config: dict[str, Any]) -> float:
     mat = config["material"]
     v_grain = mean_grain_volume(mat["d"], mat["polydispersity"], mat["n_sizes"])
     p_max = 0.0
-    for case in config["cases"].values():
+    for name, case in config["cases"].items():
         area = case["cell_x"] * case["cell_y"] * mat["d"] ** 2
         weight = case["n_grains"] * v_grain * mat["rho_s"] * case["gravity"]
-        p_max = max(p_max, case["wall_pressure"] + weight / area)
+        pressures = [p for _, p in rheometer_states(case)] if name == "rheometer" else [case["wall_pressure"]]
+        p_max = max(p_max, max(pressures) + weight / area)
     return p_max
 
 
@@ -185,6 +186,8 @@ class PlanarShearRun:
         self.design = contact_design(config)
         self.launcher = Launcher(self.dem["liggghts"], self.dem["mpi_launcher"], self.dem["mpi_ranks"])
         self.seed = derived_seed(config["seed"], case_name, run_id)
+        #: Normal stress of the top wall (Pa): per run for the rheometer, per case otherwise.
+        self.wall_pressure = run_state(run_id)[1] if case_name == "rheometer" else float(self.case["wall_pressure"])
         self.state_path = run_dir / "state.json"
         self.state: dict[str, Any] = {}
 
@@ -281,8 +284,8 @@ class PlanarShearRun:
         """Top-wall speed (m/s): given, or from the target inertial number of a rheometer run."""
         if "wall_speed" in self.case:
             return float(self.case["wall_speed"])
-        target = run_inertial_number(self.run_id)
-        shear_rate = target * math.sqrt(self.case["wall_pressure"] / self.mat["rho_s"]) / self.mat["d"]
+        target = run_state(self.run_id)[0]
+        shear_rate = target * math.sqrt(self.wall_pressure / self.mat["rho_s"]) / self.mat["d"]
         return shear_rate * self.state["fill"]["settled_gap"]
 
     def _chunk_plan(self) -> dict[str, int]:
@@ -340,7 +343,7 @@ class PlanarShearRun:
             "z_top_wall": self.state["fill"]["z_top_wall"],
             "wall_speed": self.wall_speed(),
             "gravity": self.case["gravity"],
-            "load_per_grain": self.case["wall_pressure"] * area / n_wall,
+            "load_per_grain": self.wall_pressure * area / n_wall,
             "wall_damping_per_grain": self._wall_damping() / n_wall,
             "delta_column": DELTA_COLUMN,
             "series_nevery": plan["series_nevery"],
@@ -374,7 +377,7 @@ class PlanarShearRun:
         v = self.wall_speed()
         n_flow = self.case["n_grains"] - 2 * self.state["fill"]["n_wall_grains"]
         m_grain = self.mat["rho_s"] * mean_grain_volume(d, self.mat["polydispersity"], self.mat["n_sizes"])
-        scale = 0.5 * m_grain * v**2 + self.case["wall_pressure"] * d**3
+        scale = 0.5 * m_grain * v**2 + self.wall_pressure * d**3
         ke_ratio = float(series["ke"].max()) / n_flow / scale
         if ke_ratio > self.dem["max_ke_ratio"]:
             raise DEMRunError(
@@ -458,7 +461,7 @@ class PlanarShearRun:
             "stiffness_rule": self.design.as_dict(),
             "time_step": self.design.dt,
             "wall_speed": self.wall_speed(),
-            "wall_pressure": self.case["wall_pressure"],
+            "wall_pressure": self.wall_pressure,
             "gravity": self.case["gravity"],
             "cell": [self.case["cell_x"] * self.mat["d"], self.case["cell_y"] * self.mat["d"]],
             "settled_gap": depth,

@@ -13,7 +13,7 @@ from pipeline.config import (
     derived_seed,
     liggghts_seed,
     load_config,
-    run_inertial_number,
+    run_state,
     validate_config,
 )
 
@@ -66,9 +66,12 @@ def test_missing_and_malformed_files(tmp_path) -> None:
 
 def test_runs_and_seeds_are_deterministic(config: dict) -> None:
     runs = dem_runs(config)
-    n_rheo = len(config["cases"]["rheometer"]["inertial_numbers"]) * config["cases"]["rheometer"]["replicas"]
+    rheo = config["cases"]["rheometer"]
+    n_rheo = (len(rheo["inertial_numbers"]) + len(rheo.get("extra_states", []))) * rheo["replicas"]
     assert len(runs) == n_rheo + config["cases"]["shear_gravity"]["replicas"]
-    assert run_inertial_number("I0.03-r1") == pytest.approx(0.03)
+    assert run_state("I0.03-P200-r1") == pytest.approx((0.03, 200.0))
+    with pytest.raises(ValueError, match="not a rheometer run id"):
+        run_state("r1")
     assert derived_seed(7, "a", "b") == derived_seed(7, "a", "b") != derived_seed(8, "a", "b")
     seed = liggghts_seed(7, "insert")
     assert seed > 10000 and _is_prime(seed)
