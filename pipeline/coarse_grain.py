@@ -47,7 +47,8 @@ from pipeline.kernels import KERNELS, Kernel, segment_2d
 #: Raw per-snapshot sums (per unit area or length) that all fields derive from.
 SUMS = ("mass", "mass_body", "volume", "mom_x", "mom_y", "mom_z", "mvv_xx", "mvv_yy", "mvv_zz", "mvv_xz",
         "dmass", "dmom_x", "c_xx", "c_yy", "c_zz", "c_xz", "c_zx")
-_PARTICLE_SUMS = SUMS[:10]
+#: Particle rows coarse-grained in one vectorised pass (bounds the temporaries to ~100 MB).
+BATCH_ROWS = 200_000
 
 #: Output fields: (units, long name). Every field also gets an ``_err`` companion.
 FIELDS: dict[str, tuple[str, str]] = {
@@ -126,14 +127,47 @@ class SnapshotData:
     r1: np.ndarray  # (M, 3) m, position of particle 1
     branch: np.ndarray  # (M, 3) m, r1 - r2 with the minimum image across periodic faces
     force: np.ndarray  # (M, 3) N, on particle 1
-    box: np.ndarray  # (3, 2) m
+    box: np.ndarray  # (3, 2) m (the first snapshot's, for a batch)
     periodic: tuple[bool, bool, bool]
+    # A batch of snapshots: snapshot index of every particle row and contact row, cell areas.
+    psid: np.ndarray | None = None
+    csid: np.ndarray | None = None
+    areas: np.ndarray | None = None
+
+    @property
+    def nsnap(self) -> int:
+        return 1 if self.areas is None else int(self.areas.size)
 
 
-def snapshot(particles: Dump, contacts: Dump | None, s: int, cs: int | None = None,
-             body_types: Sequence[int] | None = (1,)) -> SnapshotData:
-    """Arrays of particle snapshot ``s`` and contact snapshot ``cs`` (default: same timestep)."""
-    rows = particles.rows(s)
+def snapshot(particles: Dump, contacts: Dump | None, s: int, body_types: Sequence[int] | None = (1,)) -> SnapshotData:
+    """Arrays of particle snapshot ``s`` and of the contact snapshot at the same timestep."""
+    data = batch(particles, contacts, np.array([s]), body_types)
+    data.psid = data.csid = data.areas = None
+    return data
+
+
+def _contact_index(particles: Dump, contacts: Dump, chosen: np.ndarray) -> np.ndarray:
+    where = {int(t): k for k, t in enumerate(contacts.timesteps)}
+    missing = [int(t) for t in particles.timesteps[chosen] if int(t) not in where]
+    if missing:
+        raise CoarseGrainError(f"no contact snapshot at step(s) {missing[:5]} ({', '.join(contacts.sources)})")
+    return np.array([where[int(t)] for t in particles.timesteps[chosen]], dtype=np.int64)
+
+
+def _rows(dump: Dump, snaps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rows of several snapshots and the batch index (0..len(snaps)-1) of each row."""
+    counts = dump.counts[snaps]
+    if snaps.size == 1:
+        return dump.rows(int(snaps[0])), np.zeros(int(counts[0]), dtype=np.int64)
+    rows = np.concatenate([dump.rows(int(k)) for k in snaps])
+    return rows, np.repeat(np.arange(snaps.size), counts)
+
+
+def batch(particles: Dump, contacts: Dump | None, chosen: np.ndarray,
+          body_types: Sequence[int] | None = (1,)) -> SnapshotData:
+    """Arrays of several particle snapshots (and their contacts) for one vectorised pass."""
+    chosen = np.asarray(chosen, dtype=np.int64)
+    rows, psid = _rows(particles, chosen)
     cols = particles.columns
     pos = rows[:, [cols.index("x"), cols.index("y"), cols.index("z")]]
     vel = rows[:, [cols.index("vx"), cols.index("vy"), cols.index("vz")]]
@@ -143,16 +177,11 @@ def snapshot(particles: Dump, contacts: Dump | None, s: int, cs: int | None = No
         body = np.isin(rows[:, cols.index("type")].astype(np.int64), np.asarray(body_types))
     else:
         body = np.ones(rows.shape[0], dtype=bool)
-    box = particles.boxes[s]
+    boxes = particles.boxes[chosen]
+    lengths = boxes[:, :, 1] - boxes[:, :, 0]
     periodic = tuple(flag.startswith("p") for flag in (particles.boundary + ("pp", "pp", "ff"))[:3])
     if contacts is not None:
-        if cs is None:
-            match = np.nonzero(contacts.timesteps == particles.timesteps[s])[0]
-            if match.size == 0:
-                raise CoarseGrainError(f"no contact snapshot at step {particles.timesteps[s]} "
-                                       f"({', '.join(contacts.sources)})")
-            cs = int(match[0])
-        crow = contacts.rows(cs)
+        crow, csid = _rows(contacts, _contact_index(particles, contacts, chosen))
         cc = contacts.columns
         r1 = crow[:, [cc.index("x1"), cc.index("y1"), cc.index("z1")]]
         r2 = crow[:, [cc.index("x2"), cc.index("y2"), cc.index("z2")]]
@@ -160,11 +189,14 @@ def snapshot(particles: Dump, contacts: Dump | None, s: int, cs: int | None = No
         branch = r1 - r2
         for axis in range(3):
             if periodic[axis]:
-                length = box[axis, 1] - box[axis, 0]
+                # Minimum image: positions are wrapped into the box, contacts may cross a face.
+                length = lengths[csid, axis]
                 branch[:, axis] -= length * np.round(branch[:, axis] / length)
     else:
         r1 = branch = force = np.zeros((0, 3))
-    return SnapshotData(pos, vel, mass, 4.0 / 3.0 * math.pi * radius**3, body, r1, branch, force, box, periodic)
+        csid = np.zeros(0, dtype=np.int64)
+    return SnapshotData(pos, vel, mass, 4.0 / 3.0 * math.pi * radius**3, body, r1, branch, force, boxes[0], periodic,
+                        psid, csid, lengths[:, 0] * lengths[:, 1])
 
 
 def _window(start: np.ndarray, span: float, origin: float, step: float, n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -180,28 +212,35 @@ def _bincount(idx: np.ndarray, weights: np.ndarray, n: int) -> np.ndarray:
 
 
 def profile_sums(data: SnapshotData, kernel: Kernel, grid: Grid) -> np.ndarray:
-    """The :data:`SUMS` of one snapshot on a z profile, per unit area: array (len(SUMS), nz)."""
+    """The :data:`SUMS` on a z profile, per unit area: (len(SUMS), nz) for one snapshot, or
+    (snapshots, len(SUMS), nz) for a batch (:func:`batch`)."""
     nz, z0, dz = grid.z.size, float(grid.z[0]), grid.dz
-    area = float(np.prod(data.box[:2, 1] - data.box[:2, 0]))
+    nsnap = data.nsnap
     c = kernel.cutoff
-    out = np.zeros((len(SUMS), nz))
+    out = np.zeros((len(SUMS), nsnap * (nz + 1)))
+    # Rows of snapshot s go to bins s (nz + 1) + k; index nz of each block collects the
+    # window entries that fall off the grid and is discarded.
+    psid = np.zeros(data.mass.size, np.int64) if data.psid is None else data.psid
+    csid = np.zeros(data.force.shape[0], np.int64) if data.csid is None else data.csid
+    size = nsnap * (nz + 1)
     if data.mass.size:
         idx, ok = _window(data.pos[:, 2] - c, 2 * c, z0, dz, nz)
         u = z0 + idx * dz - data.pos[:, 2:3]
         phi = np.where(ok, kernel.pdf(u), 0.0)
         dphi = np.where(ok, kernel.dpdf(u), 0.0)
-        flat = np.where(ok, idx, nz).ravel()  # invalid entries land in a discarded extra bin
+        flat = (np.where(ok, idx, nz) + (psid * (nz + 1))[:, None]).ravel()
         m, v = data.mass, data.vel
+        mvx = m * v[:, 0]
         weights = {
             "mass": m, "mass_body": m * data.body, "volume": data.volume,
-            "mom_x": m * v[:, 0], "mom_y": m * v[:, 1], "mom_z": m * v[:, 2],
-            "mvv_xx": m * v[:, 0] ** 2, "mvv_yy": m * v[:, 1] ** 2, "mvv_zz": m * v[:, 2] ** 2,
-            "mvv_xz": m * v[:, 0] * v[:, 2],
+            "mom_x": mvx, "mom_y": m * v[:, 1], "mom_z": m * v[:, 2],
+            "mvv_xx": mvx * v[:, 0], "mvv_yy": m * v[:, 1] ** 2, "mvv_zz": m * v[:, 2] ** 2,
+            "mvv_xz": mvx * v[:, 2],
         }
         for name, wgt in weights.items():
-            out[SUMS.index(name)] = _bincount(flat, (phi * wgt[:, None]).ravel(), nz + 1)[:nz]
-        out[SUMS.index("dmass")] = _bincount(flat, (dphi * m[:, None]).ravel(), nz + 1)[:nz]
-        out[SUMS.index("dmom_x")] = _bincount(flat, (dphi * (m * v[:, 0])[:, None]).ravel(), nz + 1)[:nz]
+            out[SUMS.index(name)] = np.bincount(flat, (phi * wgt[:, None]).ravel(), size)
+        out[SUMS.index("dmass")] = np.bincount(flat, (dphi * m[:, None]).ravel(), size)
+        out[SUMS.index("dmom_x")] = np.bincount(flat, (dphi * mvx[:, None]).ravel(), size)
     if data.force.shape[0]:
         z1 = data.r1[:, 2]
         z2 = z1 - data.branch[:, 2]
@@ -210,11 +249,14 @@ def profile_sums(data: SnapshotData, kernel: Kernel, grid: Grid) -> np.ndarray:
         idx, ok = _window(lo - c, span, z0, dz, nz)
         zk = z0 + idx * dz
         weight = np.where(ok, kernel.segment(zk - z1[:, None], zk - z2[:, None]), 0.0)
-        flat = np.where(ok, idx, nz).ravel()
+        flat = (np.where(ok, idx, nz) + (csid * (nz + 1))[:, None]).ravel()
         f, r = data.force, data.branch
         for name, a, b in (("c_xx", 0, 0), ("c_yy", 1, 1), ("c_zz", 2, 2), ("c_xz", 0, 2), ("c_zx", 2, 0)):
-            out[SUMS.index(name)] = _bincount(flat, (weight * (f[:, a] * r[:, b])[:, None]).ravel(), nz + 1)[:nz]
-    return out / area
+            out[SUMS.index(name)] = np.bincount(flat, (weight * (f[:, a] * r[:, b])[:, None]).ravel(), size)
+    out = out.reshape(len(SUMS), nsnap, nz + 1)[:, :, :nz].transpose(1, 0, 2)
+    if data.areas is None:
+        return out[0] / float(np.prod(data.box[:2, 1] - data.box[:2, 0]))
+    return out / data.areas[:, None, None]
 
 
 def plane_sums(data: SnapshotData, kernel: Kernel, grid: Grid) -> np.ndarray:
@@ -367,11 +409,16 @@ def coarse_grain(particles: Dump, contacts: Dump | None, kernel: Kernel, grid: G
     if rho_s is None:
         rho_s = float(np.mean(particles.column("mass") / (4.0 / 3.0 * math.pi * radius**3)))
     plane = grid.x is not None
-    stack = []
-    for s in chosen:
-        data = snapshot(particles, contacts, int(s), body_types=body_types)
-        stack.append(plane_sums(data, kernel, grid) if plane else profile_sums(data, kernel, grid))
-    sums = np.stack(stack)
+    if plane:
+        sums = np.stack([plane_sums(snapshot(particles, contacts, int(s), body_types), kernel, grid) for s in chosen])
+    else:
+        # Snapshots in batches of about BATCH_ROWS particle rows: one vectorised pass each.
+        parts, rows = [], np.cumsum(particles.counts[chosen])
+        groups = np.split(chosen, np.searchsorted(rows, np.arange(BATCH_ROWS, rows[-1], BATCH_ROWS)))
+        for group in groups:
+            if group.size:
+                parts.append(profile_sums(batch(particles, contacts, group, body_types), kernel, grid))
+        sums = np.concatenate(parts)
     fields, errors, used = block_average(sums, blocks, d, rho_s)
     dims = ("x", "z") if plane else ("z",)
     coords = {"z": ("z", grid.z, {"units": "m", "long_name": "height (gradient direction, up)"})}

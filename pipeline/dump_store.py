@@ -5,11 +5,11 @@ exactly as parsed (float64, every column, one row per particle or contact per sn
 duplicate chunk-boundary steps dropped), the per-snapshot timesteps and boxes, and the column
 names. Later stages read it in a fraction of the parse time and never touch the text again.
 
-Why NetCDF and float64, measured on this machine (see the closing note of issue 4): reading the
-store is an order of magnitude faster than parsing the text; float32 would halve the size but
-not reproduce every printed digit of user dumps with more than 7 significant digits; zlib
-compression saves ~40 % of the size but costs more read time than it saves here; npz is as
-fast but carries no attributes for outside readers.
+Why NetCDF-4, float64, uncompressed; measured on this machine (2 shared cores) with the
+benchmark's synthetic 1e6-row, 16-column particle dump (153 MB of text, parsed in 0.42 s):
+NetCDF float64 128 MB, read back in 0.19 s; NetCDF with zlib level 1: 112 MB but 0.90 s to read;
+npz: 128 MB, 0.24 s, and no attributes for outside readers. float32 would halve the size but
+not keep every digit of dumps written with more than 7 significant digits.
 
 Usage: ``python -m pipeline.dump_store RUN_DIR`` (reads RUN_DIR/run.json for the dump lists).
 """

@@ -101,15 +101,13 @@ def test_static_bed_satisfies_every_check_exactly(tmp_path):
 
 def test_workflow_step_writes_the_contract_atomically(tmp_path):
     run = write_static_bed(tmp_path / "run")
-    (tmp_path / "config.yaml").write_text("placeholder: true\n")
     out = tmp_path / "fields/shear_gravity/synthetic.nc"
-    # The CLI validates the config with the project schema: call the library path with a dict,
-    # then check the file the CLI's writer produces.
-    result, _ = fields.run_fields(CONFIG, tmp_path / "run")
-    from pipeline.coarse_grain import write_netcdf
-
-    write_netcdf(result.dataset, out)
-    assert [p.name for p in out.parent.iterdir()] == ["synthetic.nc"]
+    config = Path(__file__).resolve().parents[2] / "config" / "ci.yaml"
+    argv = ["--config", str(config), "--run-dir", str(tmp_path / "run"), "--out", str(out)]
+    assert fields.main(argv) == 0
+    assert [p.name for p in out.parent.iterdir()] == ["synthetic.nc"]  # no temporary left behind
+    assert fields.main(argv[:3] + [str(tmp_path / "missing"), "--out", str(tmp_path / "x.nc")]) == 1
+    assert not (tmp_path / "x.nc").exists()
     with xr.open_dataset(out) as ds:
         for name in CONTRACT:
             for var in (name, f"{name}_err"):
