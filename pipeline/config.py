@@ -126,3 +126,12 @@ def liggghts_seed(master_seed: int, *labels: str) -> int:
     while not _is_prime(n):
         n += 1
     return n
+
+
+#: Config sections that do not change what a DEM run computes.
+NON_DEM_SECTIONS = ("coarse_grain", "calibration", "models")
+
+
+def dem_config(config: dict[str, Any]) -> dict[str, Any]:
+    """The part of a config a DEM run depends on (still a valid config on its own)."""
+    return {key: value for key, value in config.items() if key not in NON_DEM_SECTIONS}

@@ -36,10 +36,11 @@ import numpy as np
 import pandas as pd
 
 from pipeline import liggghts_render as render
-from pipeline.config import derived_seed, liggghts_seed, load_config, rheometer_states, run_state
+from pipeline.config import dem_config, derived_seed, liggghts_seed, load_config, rheometer_states, run_state
 from pipeline.contact_scaling import ContactDesign, design_contacts
 from pipeline.liggghts_log import DEMRunError, check_run, printed_value
 from pipeline.provenance import provenance
+from pipeline.rough_wall import layer_include, random_layer
 from pipeline.steady_state import drift_test
 from pipeline.wall_series import read_wall_series
 
@@ -52,6 +53,8 @@ CONTACT_COLUMNS = (
 DELTA_COLUMN = CONTACT_COLUMNS.index("delta") + 1
 #: Solid fraction assumed when estimating the height of the initial loose insertion region.
 INSERTION_SOLID_FRACTION = 0.25
+#: Damping ratio of the top wall's vertical motion on the bed (see PlanarShearRun._wall_damping).
+WALL_DAMPING_RATIO = 0.1
 #: Kinetic energy per grain, in units of m g d, below which the poured packing counts as settled.
 SETTLED_KE_PER_GRAIN = 1e-3
 
@@ -157,20 +160,6 @@ def read_settled(path: Path) -> pd.DataFrame:
     return pd.DataFrame(data, columns=columns)
 
 
-def choose_walls(settled: pd.DataFrame, area: float, d: float) -> tuple[np.ndarray, np.ndarray]:
-    """Ids of the bottom and top wall grains: the lowest and highest ``area / d^2`` grains.
-
-    ``area / d^2`` grains cover a wall about as densely as a monolayer (85 % of the square-lattice
-    count of the largest grains), enough that no flowing grain can pass through the wall.
-    """
-    n_wall = max(1, int(round(area / d**2)))
-    if 2 * n_wall >= len(settled) // 2:
-        raise DEMRunError(f"only {len(settled)} grains: too few to build two walls of {n_wall} grains and a bed")
-    order = np.argsort(settled["z"].to_numpy(), kind="stable")
-    ids = settled["id"].to_numpy().astype(int)
-    return ids[order[:n_wall]], ids[order[-n_wall:]]
-
-
 class PlanarShearRun:
     """One DEM run of a planar shear case (rheometer or shear with gravity)."""
 
@@ -193,7 +182,10 @@ class PlanarShearRun:
 
     # ----------------------------------------------------------------------------------- state
     def _load_state(self) -> None:
-        fingerprint = {"config": self.config, "case": self.case_name, "run": self.run_id}
+        # Only what changes the physics: MPI layout and non-DEM sections may differ on resume.
+        dem = {k: v for k, v in self.config["dem"].items() if k not in ("mpi_ranks", "mpi_launcher", "liggghts")}
+        physics = dem_config(self.config) | {"dem": dem}
+        fingerprint = {"config": physics, "case": self.case_name, "run": self.run_id}
         if self.state_path.exists():
             state = json.loads(self.state_path.read_text())
             if state.get("fingerprint") == fingerprint:
@@ -228,12 +220,21 @@ class PlanarShearRun:
         d, rho = self.mat["d"], self.mat["rho_s"]
         area = self.case["cell_x"] * self.case["cell_y"] * d**2
         v_grain = mean_grain_volume(d, self.mat["polydispersity"], self.mat["n_sizes"])
-        lz = self.case["n_grains"] * v_grain / (INSERTION_SOLID_FRACTION * area) + 2.0 * d
+        lz = self.case["n_grains"] * v_grain / (INSERTION_SOLID_FRACTION * area) + 4.0 * d
         g_fill = self.case["gravity"] if self.case["gravity"] > 0 else 9.81
         m_grain = rho * v_grain
         fall_time = math.sqrt(2.0 * lz / g_fill)
         # Short chunks: the kinetic energy is tested after each, so settling stops soon after rest.
         settle_chunk = int(math.ceil(0.5 * fall_time / self.design.dt))
+        sizes = render.size_classes(d, self.mat["polydispersity"], self.mat["n_sizes"])
+        bottom = random_layer(self.case["cell_x"] * d, self.case["cell_y"] * d, sizes,
+                              np.random.default_rng(derived_seed(self.seed, "bottom_wall")))
+        z_bottom = 0.5 * max(sizes)
+        (self.run_dir / "bottom_wall.in").write_text(layer_include(bottom, 2, z_bottom, rho, first_id=1))
+        top = random_layer(self.case["cell_x"] * d, self.case["cell_y"] * d, sizes,
+                           np.random.default_rng(derived_seed(self.seed, "top_wall")))
+        first_top_id = len(bottom) + self.case["n_grains"] + 1
+        (self.run_dir / "top_wall.in").write_text(layer_include(top, 3, "${z_top_wall}", rho, first_id=first_top_id))
         seeds = [liggghts_seed(self.seed, "size", str(k)) for k in range(self.mat["n_sizes"])]
         (self.run_dir / "grains.in").write_text(
             render.grains_include(
@@ -242,6 +243,8 @@ class PlanarShearRun:
         )
         variables = self._base_variables() | {
             "Lz_box": lz,
+            "z_insert_low": z_bottom + max(sizes),
+            "top_wall_clearance": max(sizes) + 0.01 * d,
             "n_grains": self.case["n_grains"],
             "seed_insert": liggghts_seed(self.seed, "insert"),
             "g_fill": g_fill,
@@ -260,21 +263,30 @@ class PlanarShearRun:
                 f"after {variables['settle_max_chunks']} chunks)"
             )
         settled = read_settled(self.run_dir / "settled.dump")
-        if len(settled) != self.case["n_grains"]:
-            raise DEMRunError(f"{self.label}: inserted {len(settled)} grains, the config asks for {self.case['n_grains']}")
-        bottom, top = choose_walls(settled, area, d)
-        (self.run_dir / "walls.in").write_text(render.walls_include(bottom.tolist(), top.tolist()))
-        z = settled.set_index(settled["id"].astype(int))["z"]
-        z_bottom, z_top = float(z.loc[bottom].mean()), float(z.loc[top].mean())
-        gap = z_top - z_bottom
+        flowing = settled[settled["type"] == 1]
+        if len(flowing) != self.case["n_grains"]:
+            raise DEMRunError(f"{self.label}: inserted {len(flowing)} grains, the config asks for {self.case['n_grains']}")
+        # A grain may sit in a hole of the wall layer, but its centre cannot get below the layer's
+        # underside (z = 0) without having passed through it.
+        through = flowing["z"] < z_bottom - 0.5 * max(sizes) + 0.5 * min(sizes)
+        if through.any():
+            raise DEMRunError(f"{self.label}: {int(through.sum())} grains fell through the bottom wall layer")
+        z_top = printed_value(self.run_dir / "logs" / "fill.log", "TOP_WALL_Z")
+        walls = settled[settled["type"] == 3]
+        if len(walls) != len(top) or int(walls["id"].min()) != first_top_id:
+            raise DEMRunError(f"{self.label}: the top wall has {len(walls)} grains (expected {len(top)} from id {first_top_id})")
+        if z_top + max(sizes) > lz:
+            raise DEMRunError(f"{self.label}: the settled bed reaches the top of the box ({z_top:.4g} m of {lz:.4g} m)")
         self.state["fill"] = {
             "wall_seconds": seconds,
-            "n_wall_grains": int(len(bottom)),
-            "settled_gap": gap,
+            "n_bottom_wall_grains": len(bottom),
+            "n_top_wall_grains": len(top),
+            "wall_coverage": [layer.coverage(self.case["cell_x"] * d, self.case["cell_y"] * d) for layer in (bottom, top)],
+            "settled_gap": z_top - z_bottom,
             "z_bottom_wall": z_bottom,
             "z_top_wall": z_top,
             "settled_ke": ke,
-            "wall_mass": float(settled.set_index(settled["id"].astype(int))["mass"].loc[top].sum()),
+            "wall_mass": float(np.sum(rho * np.pi * top.diameter**3 / 6.0)),
         }
         self.state["wall_seconds"] += seconds
         self._save_state()
@@ -310,10 +322,13 @@ class PlanarShearRun:
         }
 
     def _wall_damping(self) -> float:
-        """Total damping coefficient (N s/m) on the wall's vertical speed: critical for the bed spring.
+        """Total damping coefficient (N s/m) on the wall's vertical speed: 10 % of critical.
 
-        The bed acts on the wall as a spring of stiffness ``K = E_bed A / h``; the bed modulus is
-        estimated from the linearised Hertz stiffness at the design overlap, ``E_bed ~ Z nu k / (pi d)``.
+        The bed acts on the wall as a spring of stiffness ``K = E_bed A / h``, the bed modulus
+        estimated from the linearised Hertz stiffness at the design overlap,
+        ``E_bed ~ Z nu k / (pi d)``. Damping ratio 0.1 removes the wall's ringing within a few
+        periods (~1 ms) without resisting the much slower dilation of the bed: at critical damping
+        the drag of a dilating bed on the wall reached twice the load and overlaps 1 % of d.
         """
         d = self.mat["d"]
         e_star = self.design.effective_modulus
@@ -321,7 +336,7 @@ class PlanarShearRun:
         e_bed = 2.7 * k_n / (math.pi * d)
         area = self.case["cell_x"] * self.case["cell_y"] * d**2
         stiffness = e_bed * area / self.state["fill"]["settled_gap"]
-        return 2.0 * math.sqrt(stiffness * self.state["fill"]["wall_mass"])
+        return 2.0 * WALL_DAMPING_RATIO * math.sqrt(stiffness * self.state["fill"]["wall_mass"])
 
     def _run_chunk(self, kind: str, index: int, plan: dict[str, int]) -> dict[str, Any]:
         stage = f"{kind}_{index:03d}"
@@ -330,7 +345,7 @@ class PlanarShearRun:
         restart_out = f"restart/{stage}.restart"
         (self.run_dir / "restart").mkdir(exist_ok=True)
         (self.run_dir / "series").mkdir(exist_ok=True)
-        n_wall = self.state["fill"]["n_wall_grains"]
+        n_wall = self.state["fill"]["n_top_wall_grains"]
         area = self.case["cell_x"] * self.case["cell_y"] * self.mat["d"] ** 2
         production = kind == "production"
         if production:
@@ -375,7 +390,7 @@ class PlanarShearRun:
     def _check_series(self, series: pd.DataFrame, stage: str) -> None:
         d = self.mat["d"]
         v = self.wall_speed()
-        n_flow = self.case["n_grains"] - 2 * self.state["fill"]["n_wall_grains"]
+        n_flow = self.case["n_grains"]
         m_grain = self.mat["rho_s"] * mean_grain_volume(d, self.mat["polydispersity"], self.mat["n_sizes"])
         scale = 0.5 * m_grain * v**2 + self.wall_pressure * d**3
         ke_ratio = float(series["ke"].max()) / n_flow / scale
@@ -449,8 +464,10 @@ class PlanarShearRun:
             "case": self.case_name,
             "run": self.run_id,
             "geometry": self.case["geometry"],
-            "particle_count": self.case["n_grains"],
-            "wall_grains_per_wall": self.state["fill"]["n_wall_grains"],
+            "particle_count": self.case["n_grains"] + self.state["fill"]["n_bottom_wall_grains"] + self.state["fill"]["n_top_wall_grains"],
+            "flowing_grains": self.case["n_grains"],
+            "wall_grains": [self.state["fill"]["n_bottom_wall_grains"], self.state["fill"]["n_top_wall_grains"]],
+            "wall_coverage": self.state["fill"]["wall_coverage"],
             "diameters": sizes,
             "d": self.mat["d"],
             "density": self.mat["rho_s"],

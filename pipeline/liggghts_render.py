@@ -21,6 +21,10 @@ _DEFINE = re.compile(r"^\s*variable\s+([A-Za-z_][A-Za-z0-9_]*)\s", re.MULTILINE)
 _INCLUDE = re.compile(r"^\s*include\s+(\S+)", re.MULTILINE)
 
 
+#: Include files the pipeline writes at run time (not templates).
+GENERATED_INCLUDES = ("grains.in", "bottom_wall.in", "top_wall.in")
+
+
 class TemplateError(ValueError):
     """A template reads a variable that is not defined, or a template file is missing."""
 
@@ -44,11 +48,11 @@ def _strip_comments(text: str) -> str:
     return "\n".join(line.split("#", 1)[0] for line in text.splitlines())
 
 
-def variables_read(template: Path, generated: Iterable[str] = ()) -> set[str]:
+def variables_read(template: Path, generated: Iterable[str] = GENERATED_INCLUDES) -> set[str]:
     """Variables a template (and the templates it includes) reads but does not define itself.
 
-    ``generated`` names include files written at run time (grains.in, walls.in): they are not
-    followed, since they define nothing the templates read.
+    ``generated`` names include files written at run time (:data:`GENERATED_INCLUDES`): they are
+    not followed, since they define nothing the templates read.
     """
     seen: set[Path] = set()
     used: set[str] = set()
@@ -92,7 +96,7 @@ def render_stage(
     stage: str,
     template: str,
     variables: Mapping[str, object],
-    generated: Sequence[str] = ("grains.in", "walls.in"),
+    generated: Sequence[str] = GENERATED_INCLUDES,
 ) -> Path:
     """Write ``run_dir/in.<stage>``: the variable definitions, then ``include <template>``.
 
@@ -145,20 +149,3 @@ def size_classes(d: float, polydispersity: float, n_sizes: int) -> list[float]:
         return [d]
     lo, hi = d * (1.0 - polydispersity), d * (1.0 + polydispersity)
     return [lo + (hi - lo) * k / (n_sizes - 1) for k in range(n_sizes)]
-
-
-def walls_include(bottom_ids: Sequence[int], top_ids: Sequence[int]) -> str:
-    """LIGGGHTS text turning the chosen grains into bottom (type 2) and top (type 3) wall grains."""
-    if not bottom_ids or not top_ids:
-        raise ValueError("both walls need at least one grain")
-    if set(bottom_ids) & set(top_ids):
-        raise ValueError("a grain cannot belong to both walls")
-
-    def group(name: str, ids: Sequence[int]) -> list[str]:
-        # Long id lists are split over several group commands (LIGGGHTS line length limits).
-        ids = sorted(int(i) for i in ids)
-        return [f"group {name} id " + " ".join(map(str, ids[k : k + 200])) for k in range(0, len(ids), 200)]
-
-    lines = group("bottom_wall", bottom_ids) + group("top_wall", top_ids)
-    lines += ["set group bottom_wall type 2", "set group top_wall type 3"]
-    return "\n".join(lines) + "\n"

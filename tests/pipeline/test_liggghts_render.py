@@ -12,7 +12,7 @@ from pipeline import liggghts_render as render
 def test_stage_templates_read_only_defined_variables(tmp_path: Path) -> None:
     render.copy_templates("planar_shear", tmp_path)
     for template in ("fill.in", "shear.in"):
-        needed = render.variables_read(tmp_path / template, ("grains.in", "walls.in"))
+        needed = render.variables_read(tmp_path / template)
         assert needed, f"{template} reads no variables?"
         path = render.render_stage(tmp_path, "x", template, {name: 1 for name in needed})
         text = path.read_text()
@@ -23,7 +23,7 @@ def test_stage_templates_read_only_defined_variables(tmp_path: Path) -> None:
 
 def test_missing_variable_is_named(tmp_path: Path) -> None:
     render.copy_templates("planar_shear", tmp_path)
-    needed = sorted(render.variables_read(tmp_path / "shear.in", ("grains.in", "walls.in")))
+    needed = sorted(render.variables_read(tmp_path / "shear.in"))
     partial = {name: 1 for name in needed[1:]}
     with pytest.raises(render.TemplateError, match=needed[0]):
         render.render_stage(tmp_path, "x", "shear.in", partial)
@@ -46,10 +46,3 @@ def test_size_distribution_has_mean_d_and_stated_width() -> None:
     text = render.grains_include(0.002, 0.2, 5, 2500.0, [10007, 10009, 10037, 10039, 10061], 10067)
     assert text.count("particletemplate/sphere") == 5
     assert "particledistribution/discrete/numberbased 10067 5" in text
-
-
-def test_walls_must_be_disjoint() -> None:
-    with pytest.raises(ValueError, match="both walls"):
-        render.walls_include([1, 2], [2, 3])
-    text = render.walls_include(list(range(1, 401)), [500])
-    assert text.count("group bottom_wall id") == 2  # long lists are split

@@ -1,0 +1,78 @@
+"""Pipeline overhead of a DEM run: the pipeline's run against bare ``liggghts -in`` on the same inputs.
+
+The pipeline run (``pipeline.dem_run``: rendering, log and series checks, steady-state tests,
+restart bookkeeping) is timed from outside. Then every stage input it rendered (``in.fill``,
+``in.shear_000``, ...) is replayed in a copy of the run folder with the bare binary, in the same
+order, renaming each restart as the pipeline does. Both do exactly the same LIGGGHTS steps; the
+ratio of the two wall times is the overhead. Pairs are alternated to share machine load.
+
+Usage: ``python benchmarks/dem_overhead.py [--config config/ci.yaml] [--case rheometer] [--run I0.2-r1] [--repeat 2]``
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(REPO))
+
+from pipeline.dem_run import _mpi_environment  # noqa: E402
+
+
+def pipeline_run(config: str, case: str, run: str, out: Path) -> float:
+    start = time.perf_counter()
+    subprocess.run(
+        [sys.executable, "-m", "pipeline.dem_run", "--config", config, "--case", case, "--run", run, "--out", str(out)],
+        cwd=REPO, check=True, capture_output=True,
+    )
+    return time.perf_counter() - start
+
+
+def bare_replay(run_dir: Path, work: Path) -> tuple[float, int]:
+    state = json.loads((run_dir / "state.json").read_text())
+    shutil.copytree(run_dir, work)
+    for sub in ("restart", "series", "dumps", "logs"):
+        shutil.rmtree(work / sub, ignore_errors=True)
+        (work / sub).mkdir()
+    stages = ["fill"] + [c["stage"] for c in state["chunks"]]
+    steps = sum(c["steps"] for c in state["chunks"])
+    start = time.perf_counter()
+    for stage in stages:
+        subprocess.run(["liggghts", "-in", f"in.{stage}", "-log", f"logs/{stage}.log"], cwd=work, check=True,
+                       stdout=subprocess.DEVNULL, env=_mpi_environment())
+        tmp = work / "restart" / f"{stage}.restart.tmp"
+        if tmp.exists():
+            tmp.replace(work / "restart" / f"{stage}.restart")
+    return time.perf_counter() - start, steps
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--config", default="config/ci.yaml")
+    parser.add_argument("--case", default="rheometer")
+    parser.add_argument("--run", default="I0.2-r1")
+    parser.add_argument("--repeat", type=int, default=2)
+    args = parser.parse_args()
+    ratios = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for k in range(args.repeat):
+            out = Path(tmp) / f"pipeline{k}"
+            t_pipe = pipeline_run(args.config, args.case, args.run, out)
+            t_bare, steps = bare_replay(out, Path(tmp) / f"bare{k}")
+            ratios.append(t_pipe / t_bare)
+            n = json.loads((out / "run.json").read_text())["particle_count"]
+            print(f"repeat {k}: {steps} shear/production steps + fill, {n} grains: "
+                  f"pipeline {t_pipe:.2f} s, bare liggghts {t_bare:.2f} s, ratio {t_pipe / t_bare:.3f} "
+                  f"(bare: {steps * n / t_bare / 1e6:.2f} M particle-steps/s)")
+    print(f"pipeline / bare wall time: mean ratio {sum(ratios) / len(ratios):.3f} "
+          f"(overhead {100 * (sum(ratios) / len(ratios) - 1):.1f} %) over {len(ratios)} pairs")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,267 @@
+"""Calibrate the continuum models from DEM fields: ``calibration/params.json``.
+
+Local laws come from the rheometer only: each rheometer run gives one homogeneous state (bulk
+averages at least ``bulk_margin_over_d`` d from each wall) of I, mu, nu and p with standard
+errors; mu(I), nu(I) and the critical-state family are fitted to those states
+(:mod:`continuum.calibration`). The non-local parameters (NGF A, the Cosserat and the
+volume-averaged lengths l) are fitted, with the local laws fixed, on one calibration run named in
+the config (``calibration.nonlocal_case`` / ``nonlocal_run``), by least squares of log10 u_x in
+its creeping zone; ``params.json`` records where each value was fitted so the report can say which
+scores are not independent of the calibration.
+
+Usage: ``python -m pipeline.calibrate --config CONFIG --rheometer F1.nc F2.nc ... --nonlocal FIELDS.nc --out params.json``
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from continuum import calibration as fits
+from continuum.geometry import PlanarShear
+from continuum.parameters import (
+    CosseratParameters,
+    CriticalStateParameters,
+    LocalMuIParameters,
+    NGFParameters,
+    VolumeAveragedParameters,
+)
+from pipeline.config import load_config
+from pipeline.provenance import provenance
+
+CALIBRATION_DEFAULTS: dict[str, Any] = {
+    "nonlocal_case": "shear_gravity",
+    "nonlocal_run": "r1",
+    "bulk_margin_over_d": 3.0,
+    # Creeping points below this fraction of the wall speed are left out of the log fit: the
+    # DEM resolves them only above its noise (checked against the point's own error too).
+    "min_speed_over_wall_speed": 1e-5,
+    "critical_state_n": 1.05,
+    "cosserat_beta": 1.0,
+    "cosserat_wall_spin_ratio": 0.5,
+}
+
+
+class CalibrationError(ValueError):
+    """The fields cannot calibrate the models; the message names the file and the cause."""
+
+
+def calibration_settings(config: dict[str, Any]) -> dict[str, Any]:
+    """The config's ``calibration`` section over :data:`CALIBRATION_DEFAULTS`."""
+    return CALIBRATION_DEFAULTS | (config.get("calibration") or {})
+
+
+def bulk_state(path: Path, margin_over_d: float) -> dict[str, float]:
+    """Bulk averages (and their standard errors) of one rheometer fields file.
+
+    The bulk is the part of the profile at least ``margin_over_d`` d from both walls. The error of
+    a bulk average is the mean of the pointwise standard errors: neighbouring points are
+    correlated through the kernel and through the time blocks, so averaging does not reduce it.
+    """
+    ds = xr.open_dataset(path)
+    d = float(ds.attrs["d"])
+    z0, z1 = float(ds.attrs["z_bottom_wall"]), float(ds.attrs["z_top_wall"])
+    bulk = ds.where((ds.z >= z0 + margin_over_d * d) & (ds.z <= z1 - margin_over_d * d), drop=True)
+    if bulk.sizes["z"] < 3:
+        raise CalibrationError(
+            f"{path}: fewer than 3 profile points lie {margin_over_d:g} d from both walls "
+            f"(walls at {z0:.4g} and {z1:.4g} m, d = {d:.3g} m): the rheometer cell is too thin"
+        )
+    out: dict[str, float] = {"file": str(path), "wall_pressure": float(ds.attrs["wall_pressure"])}
+    for name in ("I", "mu", "nu", "p", "shear_rate"):
+        values = bulk[name].values
+        if not np.all(np.isfinite(values)):
+            raise CalibrationError(f"{path}: non-finite {name} in the bulk")
+        out[name] = float(values.mean())
+        out[f"{name}_err"] = float(bulk[f"{name}_err"].values.mean())
+    # Inhomogeneity of the bulk (shear banding) shows as a spread larger than the errors.
+    out["mu_spread"] = float(bulk["mu"].values.std())
+    out["I_spread"] = float(bulk["I"].values.std())
+    ds.close()
+    return out
+
+
+def _entry(value: float, error: float, fitted_on: str, note: str = "") -> dict[str, Any]:
+    entry: dict[str, Any] = {"value": float(value), "error": float(error), "fitted_on": fitted_on}
+    if note:
+        entry["note"] = note
+    return entry
+
+
+def planar_geometry(ds: xr.Dataset) -> tuple[PlanarShear, np.ndarray]:
+    """The planar cell of a fields file, and the fields' z shifted so the bottom wall is at 0."""
+    z0, z1 = float(ds.attrs["z_bottom_wall"]), float(ds.attrs["z_top_wall"])
+    geometry = PlanarShear(
+        depth=z1 - z0,
+        wall_speed=float(ds.attrs["wall_speed"]),
+        wall_pressure=float(ds.attrs["wall_pressure"]),
+        gravity=float(ds.attrs["gravity"]),
+        d=float(ds.attrs["d"]),
+        rho_s=float(ds.attrs["rho_s"]),
+    )
+    return geometry, ds.z.values - z0
+
+
+def creep_profile(ds: xr.Dataset, settings: dict[str, Any]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Points of u_x(z) usable for a log fit: inside the walls, resolved above the DEM noise."""
+    geometry, z = planar_geometry(ds)
+    u, err = ds["u_x"].values, ds["u_x_err"].values
+    floor = settings["min_speed_over_wall_speed"] * geometry.wall_speed
+    keep = (z > 0.0) & (z < geometry.depth) & (u > floor) & (u > 2.0 * err)
+    return z[keep], u[keep], err[keep]
+
+
+def calibrate(config: dict[str, Any], rheometer_files: list[Path], nonlocal_file: Path | None) -> dict[str, Any]:
+    """All parameters with errors and provenance (the content of ``params.json``)."""
+    settings = calibration_settings(config)
+    states = [bulk_state(Path(f), settings["bulk_margin_over_d"]) for f in rheometer_files]
+    if len(states) < 3:
+        raise CalibrationError(f"mu(I) has 3 parameters: need at least 3 rheometer states, got {len(states)}")
+    arr = {k: np.array([s[k] for s in states]) for k in ("I", "I_err", "mu", "mu_err", "nu", "nu_err", "p")}
+    if len({round(math.log10(i), 2) for i in arr["I"]}) < 3:
+        raise CalibrationError(f"mu(I) needs 3 distinct inertial numbers, got I = {arr['I'].tolist()}")
+    mu_fit = fits.fit_mu_i(arr["I"], arr["mu"], arr["mu_err"])
+    nu_fit = fits.fit_solid_fraction(arr["I"], arr["nu"], arr["nu_err"])
+    cs_fit = fits.fit_critical_state(arr["I"], arr["mu"], arr["mu_err"], arr["p"], arr["nu"], arr["nu_err"])
+    on_rheo = "rheometer"
+    params: dict[str, Any] = {
+        "local": {name: _entry(mu_fit.values[name], mu_fit.errors[name], on_rheo) for name in mu_fit.names}
+        | {name: _entry(nu_fit.values[name], nu_fit.errors[name], on_rheo) for name in nu_fit.names},
+        "critical_state": {
+            name: _entry(cs_fit.values[name], cs_fit.errors[name], on_rheo) for name in cs_fit.names
+        }
+        | {"n": _entry(settings["critical_state_n"], 0.0, "assumed", "steady planar flow does not fix the yield exponent")},
+        "fit_quality": {
+            "mu_i_chi2_reduced": mu_fit.chi2_reduced,
+            "nu_i_chi2_reduced": nu_fit.chi2_reduced,
+            "critical_state_chi2_reduced": cs_fit.chi2_reduced,
+        },
+        "covariance": {
+            "mu_i": {"names": list(mu_fit.names), "matrix": np.asarray(mu_fit.covariance).tolist()},
+            "nu_i": {"names": list(nu_fit.names), "matrix": np.asarray(nu_fit.covariance).tolist()},
+        },
+        "rheometer_states": states,
+        "nonlocal": {},
+    }
+    if nonlocal_file is not None:
+        params["nonlocal"] = calibrate_nonlocal(params, Path(nonlocal_file), settings)
+    d = float(xr.open_dataset(rheometer_files[0]).attrs["d"])
+    rho_s = float(xr.open_dataset(rheometer_files[0]).attrs["rho_s"])
+    params["d"] = d
+    params["rho_s"] = rho_s
+    params["provenance"] = provenance(config)
+    return params
+
+
+def calibrate_nonlocal(params: dict[str, Any], path: Path, settings: dict[str, Any]) -> dict[str, Any]:
+    """NGF A and the Cosserat and volume-averaged l, each fitted to the creep of one run."""
+    ds = xr.open_dataset(path)
+    geometry, _ = planar_geometry(ds)
+    z, u, err = creep_profile(ds, settings)
+    where = f"{ds.attrs.get('case', '?')}/{ds.attrs.get('run', path.stem)}"
+    if z.size < 4:
+        raise CalibrationError(f"{path}: only {z.size} resolved creep points to fit the non-local lengths")
+    base = {name: entry["value"] for name, entry in (params["local"] | params["critical_state"]).items()}
+    out: dict[str, Any] = {}
+    ngf0 = ngf_parameters(base, A=0.48)
+    fit = fits.fit_nonlocal_length("ngf", geometry, lambda a: replace(ngf0, A=a), z, u, err,
+                                   initial=0.48, bounds=(0.01, 10.0), name="A", case=where)
+    out["ngf"] = {"A": _entry(fit.values["A"], fit.errors["A"], where)}
+    d = geometry.d
+    for model, build in (("cosserat", cosserat_parameters), ("volume_averaged", volume_averaged_parameters)):
+        start = build(base, l=d, settings=settings)
+        fit = fits.fit_nonlocal_length(model, geometry, lambda l, s=start: replace(s, l=l), z, u, err,
+                                       initial=d, bounds=(0.01 * d, 50.0 * d), name="l", case=where)
+        out[model] = {"l": _entry(fit.values["l"], fit.errors["l"], where)}
+    ds.close()
+    return out
+
+
+# ------------------------------------------------------------------- parameter dataclasses
+def _mu_i(v: dict[str, float]):
+    from continuum.parameters import MuIParameters
+
+    return MuIParameters(v["mu_s"], v["mu_2"], v["I_0"])
+
+
+def local_mu_i_parameters(v: dict[str, float]) -> LocalMuIParameters:
+    from continuum.parameters import SolidFractionLaw
+
+    return LocalMuIParameters(_mu_i(v), SolidFractionLaw(v["nu_c"], v["a"]))
+
+
+def ngf_parameters(v: dict[str, float], A: float) -> NGFParameters:
+    return NGFParameters(_mu_i(v), A=A, nu=v["nu_c"])
+
+
+def critical_state_parameters(v: dict[str, float], settings: dict[str, Any] | None = None) -> CriticalStateParameters:
+    from continuum.parameters import CriticalStateLine
+
+    n = v.get("n", (settings or CALIBRATION_DEFAULTS)["critical_state_n"])
+    return CriticalStateParameters(v["sin_phi"], CriticalStateLine(v["nu_ref"], v["kappa"], v["p_ref"]), n=n)
+
+
+def cosserat_parameters(v: dict[str, float], l: float, settings: dict[str, Any] | None = None) -> CosseratParameters:
+    s = settings or CALIBRATION_DEFAULTS
+    return CosseratParameters(critical_state_parameters(v, s), l=l, beta=s["cosserat_beta"],
+                              wall_spin_ratio=s["cosserat_wall_spin_ratio"])
+
+
+def volume_averaged_parameters(v: dict[str, float], l: float, settings: dict[str, Any] | None = None) -> VolumeAveragedParameters:
+    return VolumeAveragedParameters(critical_state_parameters(v, settings), l=l)
+
+
+def values(params: dict[str, Any]) -> dict[str, float]:
+    """Flat name -> value of the local and critical-state parameters of a params.json."""
+    return {name: entry["value"] for name, entry in (params["local"] | params["critical_state"]).items()}
+
+
+def model_parameters(params: dict[str, Any], model: str) -> Any:
+    """The continuum parameter dataclass of ``model`` from a params.json content."""
+    v = values(params)
+    nonlocal_ = params.get("nonlocal", {})
+    if model == "local_mu_i":
+        return local_mu_i_parameters(v)
+    if model == "critical_state":
+        return critical_state_parameters(v)
+    if model not in nonlocal_:
+        raise CalibrationError(f"params.json has no non-local calibration for model {model!r}")
+    if model == "ngf":
+        return ngf_parameters(v, A=nonlocal_["ngf"]["A"]["value"])
+    if model == "cosserat":
+        return cosserat_parameters(v, l=nonlocal_["cosserat"]["l"]["value"])
+    if model == "volume_averaged":
+        return volume_averaged_parameters(v, l=nonlocal_["volume_averaged"]["l"]["value"])
+    raise CalibrationError(f"unknown model {model!r}")
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description="Fit the continuum parameters from DEM fields.")
+    parser.add_argument("--config", required=True)
+    parser.add_argument("--rheometer", nargs="+", required=True, type=Path, help="rheometer fields files")
+    parser.add_argument("--nonlocal", dest="nonlocal_fields", type=Path, help="fields file of the non-local calibration run")
+    parser.add_argument("--out", required=True, type=Path)
+    args = parser.parse_args(argv)
+    config = load_config(args.config)
+    params = calibrate(config, args.rheometer, args.nonlocal_fields)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = args.out.with_name(args.out.name + ".tmp")
+    tmp.write_text(json.dumps(params, indent=1))
+    tmp.replace(args.out)
+    local = params["local"]
+    print("mu_s = {:.4f} +- {:.4f}, mu_2 = {:.4f} +- {:.4f}, I_0 = {:.4f} +- {:.4f}, nu_c = {:.4f} +- {:.4f}, a = {:.3f} +- {:.3f}".format(
+        *(x for n in ("mu_s", "mu_2", "I_0", "nu_c", "a") for x in (local[n]["value"], local[n]["error"]))))
+    for model, entry in params["nonlocal"].items():
+        for name, e in entry.items():
+            print(f"{model}: {name} = {e['value']:.4g} +- {e['error']:.2g} (fitted on {e['fitted_on']})")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,97 @@
+"""Rough walls made of grains: a random monolayer of polydisperse spheres with centres in one plane.
+
+A flat layer (all centres at one height) cannot trap a flowing grain in a pocket deeper than a
+grain: an earlier choice, the lowest and highest grains of the settled packing, left flowing
+grains wedged between rigidly held wall grains, where overlaps grew without bound.
+The layer is built by random sequential addition in the periodic plane, then every hole that
+still fits a grain of the smallest size (found on a grid of 1/20 of that size) is plugged with
+one: a jammed layer, about 55 % area coverage, with no hole a grain can fall through.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class WallLayer:
+    """Grains of one rough wall: in-plane positions (m) and diameters (m)."""
+
+    x: np.ndarray
+    y: np.ndarray
+    diameter: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.x.size)
+
+    def coverage(self, lx: float, ly: float) -> float:
+        """Fraction of the wall area covered by the grains' equatorial disks."""
+        return float(np.sum(np.pi * self.diameter**2 / 4.0) / (lx * ly))
+
+
+def random_layer(lx: float, ly: float, sizes: list[float], rng: np.random.Generator,
+                 attempts_per_grain: int = 2000) -> WallLayer:
+    """Random sequential addition of disks (diameters drawn from ``sizes``) in a periodic lx x ly cell.
+
+    Sizes are drawn uniformly from the classes; once ``attempts_per_grain`` consecutive attempts
+    fail for a size, the layer is finished with the smallest size until it too stops fitting.
+    """
+    xs: list[float] = []
+    ys: list[float] = []
+    ds: list[float] = []
+    box = np.array([lx, ly])
+
+    def fits(p: np.ndarray, dia: float) -> bool:
+        if not xs:
+            return True
+        delta = np.stack([np.asarray(xs) - p[0], np.asarray(ys) - p[1]], axis=1)
+        delta -= box * np.round(delta / box)
+        gap = np.hypot(delta[:, 0], delta[:, 1]) - 0.5 * (np.asarray(ds) + dia)
+        return bool(np.all(gap >= 0.0))
+
+    smallest = min(sizes)
+    for phase in ("mixed", "smallest"):
+        failures = 0
+        while failures < attempts_per_grain:
+            dia = float(rng.choice(sizes)) if phase == "mixed" else smallest
+            p = rng.random(2) * box
+            if fits(p, dia):
+                xs.append(float(p[0]))
+                ys.append(float(p[1]))
+                ds.append(dia)
+                failures = 0
+            else:
+                failures += 1
+    # Random attempts miss rare holes: scan a fine grid and plug every hole that still fits the
+    # smallest grain (a hole a grain's equatorial disk fits through is a hole it falls through).
+    step = 0.05 * smallest
+    gx, gy = np.meshgrid(np.arange(0.0, lx, step), np.arange(0.0, ly, step), indexing="ij")
+    grid = np.stack([gx.ravel(), gy.ravel()], axis=1)
+    while True:
+        delta = grid[:, None, :] - np.stack([xs, ys], axis=1)[None, :, :]
+        delta -= box * np.round(delta / box)
+        gap = np.hypot(delta[..., 0], delta[..., 1]) - 0.5 * (np.asarray(ds)[None, :] + smallest)
+        free = np.nonzero(gap.min(axis=1) >= 0.0)[0]
+        if free.size == 0:
+            break
+        p = grid[free[0]]
+        xs.append(float(p[0]))
+        ys.append(float(p[1]))
+        ds.append(smallest)
+    return WallLayer(np.array(xs), np.array(ys), np.array(ds))
+
+
+def layer_include(layer: WallLayer, atom_type: int, z: float | str, rho_s: float, first_id: int) -> str:
+    """LIGGGHTS commands creating the layer's grains with centres at height ``z``.
+
+    ``z`` is a height in m or LIGGGHTS text evaluated when the file is included (``"${z_top}"``).
+    ``first_id`` is the id LIGGGHTS gives the first created grain (one more than the largest id
+    present): diameters and densities are set per grain by id.
+    """
+    z_text = repr(float(z)) if not isinstance(z, str) else z
+    lines = [f"create_atoms {atom_type} single {float(x)!r} {float(y)!r} {z_text} units box" for x, y in zip(layer.x, layer.y)]
+    for k, dia in enumerate(layer.diameter):
+        lines.append(f"set atom {first_id + k} diameter {float(dia)!r}")
+        lines.append(f"set atom {first_id + k} density {float(rho_s)!r}")
+    return "\n".join(lines) + "\n"

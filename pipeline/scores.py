@@ -1,0 +1,150 @@
+"""Score every model against the DEM fields: ``scores.csv``.
+
+Reference: the mean of the case's DEM replicas (each interpolated onto the first replica's z),
+with the standard error of that mean. ``dem_noise``: the same metric between two independent
+replicas (mean over the pairs), the floor below which no model can be said to do better.
+Profiles are compared inside the layer, at least ``wall_margin_over_d`` d from both walls (the
+wall grains themselves are not the material the models describe).
+
+Usage: ``python -m pipeline.scores --fields RESULTS/fields/CASE/RUN.nc ... --models
+RESULTS/models/CASE/MODEL.nc ... --out RESULTS/scores.csv`` (files are grouped by their folder,
+the case name).
+"""
+from __future__ import annotations
+
+import argparse
+import itertools
+import math
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+import pandas as pd
+import xarray as xr
+
+from pipeline import metrics
+from pipeline.metrics import MetricError, Profile
+
+COLUMNS = ["case", "model", "metric", "value", "dem_noise", "n_grid", "solve_seconds"]
+WALL_MARGIN_OVER_D = 1.0
+
+
+def replica_profiles(files: list[Path]) -> list[xr.Dataset]:
+    """The replicas' fields, each interpolated onto the first replica's z."""
+    if not files:
+        raise FileNotFoundError("no DEM fields files to score against")
+    sets = [xr.open_dataset(f) for f in files]
+    z = sets[0].z
+    return [sets[0]] + [ds.interp(z=z) for ds in sets[1:]]
+
+
+def interior(ds: xr.Dataset) -> np.ndarray:
+    """Mask of the points at least the wall margin from both walls."""
+    d = float(ds.attrs["d"])
+    z0, z1 = float(ds.attrs["z_bottom_wall"]), float(ds.attrs["z_top_wall"])
+    z = ds.z.values
+    return (z >= z0 + WALL_MARGIN_OVER_D * d) & (z <= z1 - WALL_MARGIN_OVER_D * d)
+
+
+def mean_profile(reps: list[xr.Dataset], name: str) -> tuple[np.ndarray, np.ndarray]:
+    """Replica mean of a variable and its standard error (from the replicas' own errors)."""
+    values = np.array([ds[name].values for ds in reps])
+    errors = np.array([ds[f"{name}_err"].values for ds in reps])
+    return values.mean(axis=0), np.sqrt((errors**2).sum(axis=0)) / len(reps)
+
+
+Metric = Callable[[np.ndarray, dict[str, np.ndarray], Profile, float], float]
+
+
+def _metrics(z: np.ndarray, wall_speed: float) -> dict[str, tuple[str, Callable[..., float]]]:
+    """metric name -> (variable it needs, function(model_values, dem_values, dem_err))."""
+
+    def vel_rmse(m, dem, err):
+        return metrics.velocity_rmse_rel(z, m, dem, wall_speed)
+
+    def log_rmse(m, dem, err):
+        prof = Profile(z, dem, err)
+        return metrics.log_velocity_rmse(m, prof, metrics.creeping_mask(prof, wall_speed))
+
+    def decay(m, dem, err):
+        prof = Profile(z, dem, err)
+        return metrics.decay_length_rel_err(z, m, prof, metrics.creeping_mask(prof, wall_speed))
+
+    def band(m, dem, err):
+        return metrics.shear_band_width_rel_err(z, m, dem, wall_speed)
+
+    def plain(m, dem, err):
+        return metrics.rmse(m, dem)
+
+    return {
+        "velocity_rmse_rel": ("u_x", vel_rmse),
+        "log_velocity_rmse": ("u_x", log_rmse),
+        "decay_length_rel_err": ("u_x", decay),
+        "shear_band_width_rel_err": ("u_x", band),
+        "nu_rmse": ("nu", plain),
+        "mu_rmse": ("mu", plain),
+    }
+
+
+def dem_noise(reps: list[xr.Dataset], variable: str, fn: Callable[..., float], mask: np.ndarray) -> float:
+    """Mean of the metric between pairs of replicas (nan with a single replica)."""
+    values = []
+    for a, b in itertools.combinations(reps, 2):
+        try:
+            values.append(fn(a[variable].values[mask], b[variable].values[mask], b[f"{variable}_err"].values[mask]))
+        except MetricError:
+            continue
+    finite = [v for v in values if math.isfinite(v)]
+    return float(np.mean(finite)) if finite else float("nan")
+
+
+def score_case(case: str, field_files: list[Path], model_files: dict[str, Path]) -> pd.DataFrame:
+    """All metric rows of one case."""
+    reps = replica_profiles(field_files)
+    mask = interior(reps[0])
+    z = reps[0].z.values[mask]
+    wall_speed = float(reps[0].attrs["wall_speed"])
+    rows = []
+    table = _metrics(z, wall_speed)
+    for model, path in sorted(model_files.items()):
+        sol = xr.open_dataset(path)
+        if not np.allclose(sol.z.values, reps[0].z.values):
+            raise ValueError(f"{path}: model z does not match the DEM fields of {case} (solve it on those fields)")
+        for metric, (variable, fn) in table.items():
+            if variable not in sol:
+                continue  # the model does not predict this quantity: no row
+            dem, err = mean_profile(reps, variable)
+            try:
+                value = fn(sol[variable].values[mask], dem[mask], err[mask])
+            except MetricError:
+                continue
+            rows.append({
+                "case": case, "model": model, "metric": metric, "value": value,
+                "dem_noise": dem_noise(reps, variable, fn, mask),
+                "n_grid": int(sol.attrs["n_grid"]), "solve_seconds": float(sol.attrs["solve_seconds"]),
+            })
+        sol.close()
+    return pd.DataFrame(rows, columns=COLUMNS)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description="Score the continuum models against the DEM fields.")
+    parser.add_argument("--fields", nargs="+", required=True, type=Path, help="fields/CASE/RUN.nc files")
+    parser.add_argument("--models", nargs="+", required=True, type=Path, help="models/CASE/MODEL.nc files")
+    parser.add_argument("--out", required=True, type=Path)
+    args = parser.parse_args(argv)
+    frames = []
+    for case in sorted({p.parent.name for p in args.models}):
+        field_files = sorted(p for p in args.fields if p.parent.name == case)
+        model_files = {p.stem: p for p in args.models if p.parent.name == case}
+        frames.append(score_case(case, field_files, model_files))
+    scores = pd.concat(frames, ignore_index=True)
+    tmp = args.out.with_name(args.out.name + ".tmp")
+    scores.to_csv(tmp, index=False)
+    tmp.replace(args.out)
+    print(scores.to_string(index=False))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
