@@ -4,14 +4,18 @@ A flat layer (all centres at one height) cannot trap a flowing grain in a pocket
 grain: an earlier choice, the lowest and highest grains of the settled packing, left flowing
 grains wedged between rigidly held wall grains, where overlaps grew without bound.
 The layer is built by random sequential addition in the periodic plane, then every hole that
-still fits a grain of the smallest size (found on a grid of 1/20 of that size) is plugged with
-one: a jammed layer, about 55 % area coverage, with no hole a grain can fall through.
+still fits a disk of 85 % of the smallest grain (found on a fine grid) is plugged with such a
+disk: a jammed layer, about 55 % area coverage, with no hole a grain can squeeze through.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 import numpy as np
+
+
+#: Holes that fit a disk of this fraction of the smallest grain are plugged (see random_layer).
+PLUG_FRACTION = 0.85
 
 
 @dataclass(frozen=True)
@@ -63,22 +67,24 @@ def random_layer(lx: float, ly: float, sizes: list[float], rng: np.random.Genera
                 failures = 0
             else:
                 failures += 1
-    # Random attempts miss rare holes: scan a fine grid and plug every hole that still fits the
-    # smallest grain (a hole a grain's equatorial disk fits through is a hole it falls through).
-    step = 0.05 * smallest
+    # Random attempts miss rare holes: scan a fine grid and plug every hole that still fits a disk
+    # of PLUG_FRACTION of the smallest grain. Soft contacts let a grain squeeze through a hole a
+    # little narrower than itself (seen: 1.5 % narrower), so holes are plugged with a margin.
+    plug = PLUG_FRACTION * smallest
+    step = 0.05 * plug
     gx, gy = np.meshgrid(np.arange(0.0, lx, step), np.arange(0.0, ly, step), indexing="ij")
     grid = np.stack([gx.ravel(), gy.ravel()], axis=1)
     while True:
         delta = grid[:, None, :] - np.stack([xs, ys], axis=1)[None, :, :]
         delta -= box * np.round(delta / box)
-        gap = np.hypot(delta[..., 0], delta[..., 1]) - 0.5 * (np.asarray(ds)[None, :] + smallest)
+        gap = np.hypot(delta[..., 0], delta[..., 1]) - 0.5 * (np.asarray(ds)[None, :] + plug)
         free = np.nonzero(gap.min(axis=1) >= 0.0)[0]
         if free.size == 0:
             break
         p = grid[free[0]]
         xs.append(float(p[0]))
         ys.append(float(p[1]))
-        ds.append(smallest)
+        ds.append(plug)
     return WallLayer(np.array(xs), np.array(ys), np.array(ds))
 
 

@@ -46,3 +46,17 @@ def reduced_results(tmp_path_factory: pytest.TempPathFactory) -> Path:
         logs = "\n".join(f"--- {p}\n{p.read_text()[-3000:]}" for p in sorted(out.glob("logs/**/*.log")))
         pytest.fail(f"reduced workflow failed (exit {proc.returncode}):\n{proc.stderr[-5000:]}\n{logs}")
     return out
+
+
+@pytest.fixture(scope="session")
+def shear_gravity_run(reduced_results: Path) -> Path:
+    """Folder of the first reduced shear_gravity DEM run (real LIGGGHTS output)."""
+    return reduced_results / "dem" / "shear_gravity" / "r1"
+
+
+@pytest.fixture(scope="session")
+def rheometer_run(reduced_results: Path) -> Path:
+    """Folder of the first reduced rheometer DEM run (real LIGGGHTS output)."""
+    runs = sorted((reduced_results / "dem" / "rheometer").glob("*/run.json"))
+    assert runs, f"no rheometer run under {reduced_results}"
+    return runs[0].parent

@@ -2,7 +2,7 @@
 answers, and on real DEM output of the reduced shear_gravity run.
 
 Real-data tests take the run folder from the ``shear_gravity_run`` fixture if the suite provides
-one, else from ``$GV_SG_RUN`` (default /tmp/gv_sg), and skip when it is absent.
+one (the reduced workflow run once per session by tests/conftest.py).
 """
 from __future__ import annotations
 
@@ -145,14 +145,9 @@ def test_plane_fields_and_vtk(tmp_path):
 
 
 @pytest.fixture
-def sg_run(request: pytest.FixtureRequest) -> Path:
-    try:
-        return Path(request.getfixturevalue("shear_gravity_run"))
-    except pytest.FixtureLookupError:
-        path = Path(os.environ.get("GV_SG_RUN", "/tmp/gv_sg"))
-        if not (path / "run.json").exists():
-            pytest.skip(f"no reduced shear_gravity run at {path} (set GV_SG_RUN)")
-        return path
+def sg_run(shear_gravity_run: Path) -> Path:
+    """The reduced workflow's shear_gravity run (tests/conftest.py)."""
+    return shear_gravity_run
 
 
 @pytest.fixture

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pipeline.rough_wall import layer_include, random_layer
+from pipeline.rough_wall import PLUG_FRACTION, layer_include, random_layer
 
 SIZES = [0.0016, 0.0018, 0.002, 0.0022, 0.0024]
 
@@ -29,10 +29,11 @@ def test_layer_is_jammed_for_the_smallest_grain(rng: np.random.Generator) -> Non
     trial = rng.random((20000, 2)) * [lx, ly]
     delta = trial[:, None, :] - np.stack([layer.x, layer.y], axis=1)[None, :, :]
     delta -= np.array([lx, ly]) * np.round(delta / np.array([lx, ly]))
-    gap = np.hypot(delta[..., 0], delta[..., 1]) - 0.5 * (layer.diameter[None, :] + min(SIZES))
-    # No random position has room for a smallest grain (holes are plugged on a grid of d/20:
-    # a hole missed between grid points is narrower than the grain by at most that spacing).
-    assert np.all(gap.min(axis=1) < 0.05 * min(SIZES))
+    plug = PLUG_FRACTION * min(SIZES)
+    gap = np.hypot(delta[..., 0], delta[..., 1]) - 0.5 * (layer.diameter[None, :] + plug)
+    # No random position has room for a disk of 85 % of the smallest grain (holes are plugged on
+    # a grid of plug/20: a hole missed between grid points is narrower by at most that spacing).
+    assert np.all(gap.min(axis=1) < 0.05 * plug)
 
 
 def test_include_sets_size_and_density_by_id(rng: np.random.Generator) -> None:
