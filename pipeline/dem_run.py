@@ -53,6 +53,8 @@ CONTACT_COLUMNS = (
 DELTA_COLUMN = CONTACT_COLUMNS.index("delta") + 1
 #: Solid fraction assumed when estimating the height of the initial loose insertion region.
 INSERTION_SOLID_FRACTION = 0.25
+#: Smallest wall-to-wall gap (in d) a run accepts: the bulk is sampled 3 d from each wall.
+MIN_GAP_OVER_D = 6.0
 #: Damping ratio of the top wall's vertical motion on the bed (see PlanarShearRun._wall_damping).
 WALL_DAMPING_RATIO = 0.1
 #: Kinetic energy per grain, in units of m g d, below which the poured packing counts as settled.
@@ -272,6 +274,11 @@ class PlanarShearRun:
         if through.any():
             raise DEMRunError(f"{self.label}: {int(through.sum())} grains fell through the bottom wall layer")
         z_top = printed_value(self.run_dir / "logs" / "fill.log", "TOP_WALL_Z")
+        if z_top - z_bottom < MIN_GAP_OVER_D * d:
+            raise DEMRunError(
+                f"{self.label}: only {self.case['n_grains']} grains, too few grains for a bed between the walls "
+                f"({(z_top - z_bottom) / d:.1f} d deep, the minimum is {MIN_GAP_OVER_D:g} d)"
+            )
         walls = settled[settled["type"] == 3]
         if len(walls) != len(top) or int(walls["id"].min()) != first_top_id:
             raise DEMRunError(f"{self.label}: the top wall has {len(walls)} grains (expected {len(top)} from id {first_top_id})")

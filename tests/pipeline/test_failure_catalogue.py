@@ -114,8 +114,6 @@ def test_soft_grains_break_the_overlap_bound(dem_runs) -> None:
 
 
 @pytest.mark.liggghts
-@pytest.mark.xfail(strict=True, reason="pipeline.dem_run: the too-few-grains message (choose_walls) does not name "
-                                       "the run at HEAD, and the rough-wall rewrite in progress drops the check")
 def test_too_few_grains_is_refused_naming_the_run(dem_runs) -> None:
     with pytest.raises(DEMRunError, match=r"DEM run rheometer/I0.2-P200-r1.*too few grains"):
         dem_runs["too_few_grains"].run()
