@@ -1,8 +1,6 @@
 # granular-validate: DEM rheometer and planar shear -> coarse-grained fields -> calibration ->
 # continuum models -> stability -> report. Wiring only: every rule calls a module of `pipeline`.
 # Paths follow ../shared/contract.md; the output root comes from the config.
-import sys
-
 from snakemake.utils import min_version, validate
 
 from pipeline import targets
@@ -17,7 +15,9 @@ validate(config, "config/schema.yaml")
 targets.checked(config)
 
 ROOT = config["output_root"]
-PY = sys.executable
+ENV = "envs/granular-validate.yaml"
+# Rules run `python` from the environment Snakemake itself runs in (the project's .venv).
+shell.prefix(targets.python_path_prefix())
 CONFIG_JSON = targets.effective_config_file(config)
 CONFIG_DEM_JSON = targets.effective_config_file(config, dem_only=True)
 
@@ -41,6 +41,8 @@ rule all:
 rule dem:
     message:
         "LIGGGHTS run {wildcards.case}/{wildcards.run}"
+    conda:
+        ENV
     input:
         CONFIG_DEM_JSON,
     output:
@@ -50,13 +52,13 @@ rule dem:
     benchmark:
         f"{ROOT}/benchmarks/dem/{{case}}/{{run}}.tsv"
     params:
-        run_dir=f"{ROOT}/dem/{{case}}/{{run}}",
+        run_dir=targets.output_folder,
     threads: targets.mpi_ranks(config)
     resources:
         tasks=targets.mpi_ranks(config),
         mpi=targets.mpi_launcher(config),
     shell:
-        "{PY} -m pipeline.dem_run --config {input} --case {wildcards.case} --run {wildcards.run} "
+        "python -m pipeline.dem_run --config {input} --case {wildcards.case} --run {wildcards.run} "
         "--out {params.run_dir} --mpi-launcher '{resources.mpi}' --mpi-ranks {resources.tasks} "
         "> {log} 2>&1"
 
@@ -64,6 +66,8 @@ rule dem:
 rule dump_store:
     message:
         "Dumps of {wildcards.case}/{wildcards.run} into one compact store"
+    conda:
+        ENV
     input:
         f"{ROOT}/dem/{{case}}/{{run}}/run.json",
     output:
@@ -73,15 +77,17 @@ rule dump_store:
     benchmark:
         f"{ROOT}/benchmarks/dump_store/{{case}}/{{run}}.tsv"
     params:
-        run_dir=f"{ROOT}/dem/{{case}}/{{run}}",
+        run_dir=targets.output_folder,
     shell:
-        "{PY} -m pipeline.dump_store {params.run_dir} --out {output} > {log} 2>&1"
+        "python -m pipeline.dump_store {params.run_dir} --out {output} > {log} 2>&1"
 
 
 # ------------------------------------------------------------------------ coarse-graining
 rule fields:
     message:
         "Coarse-grained fields of {wildcards.case}/{wildcards.run}"
+    conda:
+        ENV
     input:
         config=CONFIG_JSON,
         run=f"{ROOT}/dem/{{case}}/{{run}}/run.json",
@@ -93,15 +99,17 @@ rule fields:
     benchmark:
         f"{ROOT}/benchmarks/fields/{{case}}/{{run}}.tsv"
     params:
-        run_dir=f"{ROOT}/dem/{{case}}/{{run}}",
+        run_dir=targets.run_folder_of_input,
     shell:
-        "{PY} -m pipeline.fields --config {input.config} --run-dir {params.run_dir} --out {output} > {log} 2>&1"
+        "python -m pipeline.fields --config {input.config} --run-dir {params.run_dir} --out {output} > {log} 2>&1"
 
 
 # ---------------------------------------------------------------------------- calibration
 rule calibrate:
     message:
         "Calibration of the local laws (rheometer) and the non-local lengths"
+    conda:
+        ENV
     input:
         config=CONFIG_JSON,
         rheometer=targets.fields_paths(config, "rheometer"),
@@ -113,7 +121,7 @@ rule calibrate:
     benchmark:
         f"{ROOT}/benchmarks/calibrate.tsv"
     shell:
-        "{PY} -m pipeline.calibrate --config {input.config} --rheometer {input.rheometer} "
+        "python -m pipeline.calibrate --config {input.config} --rheometer {input.rheometer} "
         "--nonlocal {input.nonlocal_fields} --out {output} > {log} 2>&1"
 
 
@@ -121,6 +129,8 @@ rule calibrate:
 rule model:
     message:
         "Model {wildcards.model} on {wildcards.case}"
+    conda:
+        ENV
     input:
         config=CONFIG_JSON,
         params=f"{ROOT}/calibration/params.json",
@@ -132,7 +142,7 @@ rule model:
     benchmark:
         f"{ROOT}/benchmarks/models/{{case}}/{{model}}.tsv"
     shell:
-        "{PY} -m pipeline.solve_models --config {input.config} --params {input.params} "
+        "python -m pipeline.solve_models --config {input.config} --params {input.params} "
         "--case {wildcards.case} --model {wildcards.model} --fields {input.fields} --out {output} > {log} 2>&1"
 
 
@@ -140,6 +150,8 @@ rule model:
 rule scores:
     message:
         "Scores of every model against the DEM, with the replica noise floor"
+    conda:
+        ENV
     input:
         fields=[f for case in targets.scored_cases(config) for f in targets.fields_paths(config, case)],
         models=targets.model_paths(config),
@@ -150,13 +162,15 @@ rule scores:
     benchmark:
         f"{ROOT}/benchmarks/scores.tsv"
     shell:
-        "{PY} -m pipeline.scores --fields {input.fields} --models {input.models} --out {output} > {log} 2>&1"
+        "python -m pipeline.scores --fields {input.fields} --models {input.models} --out {output} > {log} 2>&1"
 
 
 # ------------------------------------------------------------------------------ stability
 rule well_posedness:
     message:
         "Linear stability of every model about simple shear"
+    conda:
+        ENV
     input:
         f"{ROOT}/calibration/params.json",
     output:
@@ -166,13 +180,54 @@ rule well_posedness:
     benchmark:
         f"{ROOT}/benchmarks/well_posedness.tsv"
     shell:
-        "{PY} -m pipeline.stability --params {input} --out {output} > {log} 2>&1"
+        "python -m pipeline.stability --params {input} --out {output} > {log} 2>&1"
+
+
+rule mesh_convergence:
+    message:
+        "Mesh dependence of every model (shear_gravity and a weak-plane localisation case)"
+    conda:
+        ENV
+    input:
+        params=f"{ROOT}/calibration/params.json",
+        fields=targets.fields_paths(config, "shear_gravity"),
+    output:
+        f"{ROOT}/stability/mesh_convergence.csv",
+    log:
+        f"{ROOT}/logs/mesh_convergence.log",
+    benchmark:
+        f"{ROOT}/benchmarks/mesh_convergence.tsv"
+    shell:
+        "python -m pipeline.mesh_convergence --params {input.params} --fields {input.fields} --out {output} > {log} 2>&1"
+
+
+rule failure_catalogue:
+    message:
+        "Failure catalogue: solver ranges that do not converge, DEM settings that fail"
+    conda:
+        ENV
+    input:
+        config=CONFIG_JSON,
+        params=f"{ROOT}/calibration/params.json",
+    output:
+        f"{ROOT}/stability/failure_catalogue.csv",
+    log:
+        f"{ROOT}/logs/failure_catalogue.log",
+    benchmark:
+        f"{ROOT}/benchmarks/failure_catalogue.tsv"
+    params:
+        work=f"{ROOT}/stability/failure_runs",
+    shell:
+        "python -m pipeline.failure_catalogue --config {input.config} --params {input.params} "
+        "--work {params.work} --out {output} > {log} 2>&1"
 
 
 # ------------------------------------------------------------------------------- report
 rule report:
     message:
         "Comparison report"
+    conda:
+        ENV
     input:
         config=CONFIG_JSON,
         runs=targets.run_json_paths(config),
@@ -181,11 +236,19 @@ rule report:
         models=targets.model_paths(config),
         well_posedness=f"{ROOT}/stability/well_posedness.csv",
         scores=f"{ROOT}/scores.csv",
+        mesh=f"{ROOT}/stability/mesh_convergence.csv",
+        failures=f"{ROOT}/stability/failure_catalogue.csv",
     output:
-        f"{ROOT}/report.html",
+        html=f"{ROOT}/report.html",
+        figures=[
+            report(f"{ROOT}/figures/{name}.png", category="granular-validate")
+            for name in targets.REPORT_FIGURES
+        ],
     log:
         f"{ROOT}/logs/report.log",
     benchmark:
         f"{ROOT}/benchmarks/report.tsv"
+    params:
+        figures=targets.figure_folder,
     shell:
-        "{PY} -m pipeline.report --config {input.config} --out {output} > {log} 2>&1"
+        "python -m pipeline.report --config {input.config} --out {output.html} --figures {params.figures} > {log} 2>&1"

@@ -28,7 +28,7 @@ def _key_path(error: jsonschema.ValidationError) -> str:
 def validate_config(config: dict[str, Any], source: str = "<config>") -> dict[str, Any]:
     """Check ``config`` against the schema; raise :class:`ConfigError` naming the first bad key."""
     schema = yaml.safe_load(SCHEMA_PATH.read_text())
-    validator = jsonschema.Draft7Validator(schema)
+    validator = jsonschema.Draft202012Validator(schema)
     errors = sorted(validator.iter_errors(config), key=lambda e: (len(list(e.absolute_path)), str(e.absolute_path)))
     if errors:
         lines = [f"{source}: {_key_path(e)}: {e.message}" for e in errors[:10]]

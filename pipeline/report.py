@@ -1,22 +1,39 @@
-"""Write the comparison report ``report.html`` from the files the stages wrote.
+"""Write the comparison report ``report.html`` (self-contained) and its figures as PNG files.
 
-Usage: ``python -m pipeline.report --config RESULTS/config.effective.json --out RESULTS/report.html``
+Reads only what the stages wrote (run.json, wall series, fields, params.json, model solutions,
+scores.csv, stability tables), never recomputes them.
+
+Usage: ``python -m pipeline.report --config RESULTS/config.effective.json --out RESULTS/report.html
+[--figures RESULTS/figures]``
 """
 from __future__ import annotations
 
 import argparse
 import html
 import json
+import math
 from pathlib import Path
 from typing import Any
 
 import matplotlib.pyplot as plt
+import numpy as np
 import pandas as pd
+import xarray as xr
 
 from pipeline.config import dem_runs, load_config
 from pipeline.html_report import figure_html, page, table_html
 from pipeline.provenance import software_versions
+from pipeline.targets import model_names, scored_cases
 from pipeline.wall_series import read_wall_series
+
+MODEL_STYLE = {
+    "local_mu_i": ("tab:blue", "-"),
+    "critical_state": ("tab:orange", "--"),
+    "cosserat": ("tab:green", "-."),
+    "ngf": ("tab:red", "-"),
+    "volume_averaged": ("tab:purple", ":"),
+}
+HEADLINE_METRICS = ("log_velocity_rmse", "velocity_rmse_rel", "decay_length_rel_err", "shear_band_width_rel_err", "nu_rmse", "mu_rmse")
 
 
 def load_runs(config: dict[str, Any]) -> list[dict[str, Any]]:
@@ -34,35 +51,226 @@ def load_runs(config: dict[str, Any]) -> list[dict[str, Any]]:
     return runs
 
 
+class Figures:
+    """Collects figures: embeds each in the page and saves it as PNG."""
+
+    def __init__(self, folder: Path | None) -> None:
+        self.folder = folder
+        if folder is not None:
+            folder.mkdir(parents=True, exist_ok=True)
+
+    def add(self, name: str, fig: plt.Figure, caption: str) -> str:
+        if self.folder is not None:
+            fig.savefig(self.folder / f"{name}.png", dpi=110, bbox_inches="tight")
+        return figure_html(fig, caption)
+
+
+# ------------------------------------------------------------------------------------ scores
+def score_section(root: Path, figures: Figures, nonlocal_where: str) -> str:
+    scores = pd.read_csv(root / "scores.csv")
+    parts = ["<h2>Scores against DEM</h2>",
+             "<p class='note'>Each value is the metric between the model and the mean of the DEM replicas; "
+             "<b>dem_noise</b> is the same metric between two replicas: a model whose value is within the "
+             "noise cannot be told apart from the DEM. Green: within 2x the noise; red: more than 10x the noise "
+             "or no creep predicted (inf). Non-local lengths were fitted on "
+             f"<b>{html.escape(nonlocal_where)}</b>: their scores on that case are calibration quality, not "
+             "independent predictions.</p>"]
+    for case, frame in scores.groupby("case"):
+        wide = frame.pivot(index="model", columns="metric", values="value")
+        noise = frame.groupby("metric")["dem_noise"].first()
+        cols = [m for m in HEADLINE_METRICS if m in wide.columns]
+        wide = wide[cols]
+        table = wide.reset_index()
+        styles = []
+        for _, row in table.iterrows():
+            row_style = [""]
+            for m in cols:
+                v, n = row[m], noise.get(m, float("nan"))
+                if not np.isfinite(v) or (np.isfinite(n) and n > 0 and v > 10 * n):
+                    row_style.append("background:#f6c6c6")
+                elif np.isfinite(n) and v <= 2 * n:
+                    row_style.append("background:#c8eec8")
+                else:
+                    row_style.append("")
+            styles.append(row_style)
+        noise_row = pd.DataFrame([["DEM noise (replica vs replica)"] + [noise.get(m, float("nan")) for m in cols]],
+                                 columns=["model"] + cols)
+        parts.append(f"<h3>{html.escape(case)}</h3>")
+        parts.append(table_html(pd.concat([table, noise_row], ignore_index=True), cell_style=styles + [[""] * (len(cols) + 1)]))
+        cost = frame.groupby("model")[["solve_seconds", "n_grid"]].first().reset_index()
+        parts.append(table_html(cost))
+    return "\n".join(parts)
+
+
+def pareto_section(root: Path, figures: Figures) -> str:
+    scores = pd.read_csv(root / "scores.csv")
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4))
+    for ax, metric in zip(axes, ("velocity_rmse_rel", "log_velocity_rmse")):
+        sub = scores[scores.metric == metric]
+        for _, row in sub.iterrows():
+            color, _ = MODEL_STYLE.get(row.model, ("k", "-"))
+            value = row.value if np.isfinite(row.value) else np.nan
+            ax.scatter(row.solve_seconds * 1e3, value, color=color, label=f"{row.model} ({row.case})", s=40)
+            if not np.isfinite(row.value):
+                ax.annotate(f"{row.model}: no creep", (row.solve_seconds * 1e3, ax.get_ylim()[1]), fontsize=7, color=color)
+        noise = sub["dem_noise"].dropna()
+        if len(noise):
+            ax.axhline(noise.iloc[0], color="grey", ls="--", lw=1, label="DEM noise floor")
+        ax.set_xscale("log")
+        ax.set_xlabel("solve time (ms)")
+        ax.set_ylabel(metric.replace("_", " "))
+        ax.legend(fontsize=7)
+    sentence = cheapest_sentence(scores)
+    return ("<h2>Accuracy against cost</h2>" + figures.add("pareto", fig, "Error of each model against its solve time (1D, converged grid).")
+            + f"<p>{html.escape(sentence)}</p>")
+
+
+def cheapest_sentence(scores: pd.DataFrame, metric: str = "velocity_rmse_rel", factor: float = 2.0) -> str:
+    """Per case: the cheapest model within ``factor`` of the best accuracy on ``metric``."""
+    out = []
+    for case, frame in scores[scores.metric == metric].groupby("case"):
+        finite = frame[np.isfinite(frame.value)]
+        if finite.empty:
+            continue
+        best = finite.value.min()
+        ok = finite[finite.value <= factor * best].sort_values("solve_seconds")
+        row = ok.iloc[0]
+        out.append(f"{case}: the cheapest model within {factor:g}x of the best {metric} ({best:.3g}) is "
+                   f"{row.model} ({row.value:.3g}, {row.solve_seconds * 1e3:.2f} ms).")
+    return " ".join(out)
+
+
+# ---------------------------------------------------------------------------------- profiles
+def profiles_section(root: Path, config: dict[str, Any], figures: Figures) -> str:
+    parts = ["<h2>Profiles</h2>"]
+    for case in scored_cases(config):
+        files = sorted((root / "fields" / case).glob("*.nc"))
+        reps = [xr.open_dataset(f) for f in files]
+        z0 = float(reps[0].attrs["z_bottom_wall"])
+        d = float(reps[0].attrs["d"])
+        V = float(reps[0].attrs["wall_speed"])
+        fig, axes = plt.subplots(1, 4, figsize=(15, 5), sharey=True)
+        for k, ds in enumerate(reps):
+            zz = (ds.z.values - z0) / d
+            for ax, (name, scale) in zip(axes, (("u_x", V), ("u_x", V), ("nu", 1.0), ("mu", 1.0))):
+                y, e = ds[name].values / scale, ds[f"{name}_err"].values / scale
+                ax.plot(y, zz, color="k", lw=1, label="DEM replicas" if k == 0 else None)
+                ax.fill_betweenx(zz, y - e, y + e, color="k", alpha=0.15)
+        for model in model_names(config):
+            path = root / "models" / case / f"{model}.nc"
+            if not path.exists():
+                continue
+            sol = xr.open_dataset(path)
+            zz = (sol.z.values - z0) / d
+            color, ls = MODEL_STYLE.get(model, ("grey", "-"))
+            for ax, (name, scale) in zip(axes, (("u_x", V), ("u_x", V), ("nu", 1.0), ("mu", 1.0))):
+                if name in sol:
+                    ax.plot(sol[name].values / scale, zz, color=color, ls=ls, lw=1.5, label=model)
+        axes[1].set_xscale("log")
+        axes[1].set_xlim(1e-7, 2)
+        axes[0].set_xlabel("u_x / V (-)")
+        axes[1].set_xlabel("u_x / V (-), log axis")
+        axes[2].set_xlabel("solid fraction nu (-)")
+        axes[3].set_xlabel("stress ratio mu = |sigma_xz| / p (-)")
+        axes[0].set_ylabel("height above the bottom wall, z / d (-)")
+        axes[0].legend(fontsize=7)
+        parts.append(figures.add("profiles" if case == scored_cases(config)[0] else f"profiles_{case}", fig,
+                                 f"{case}: DEM (black, one line per replica, band = standard error) and every model."))
+    return "\n".join(parts)
+
+
+# ------------------------------------------------------------------------------- calibration
+def calibration_section(root: Path, figures: Figures) -> str:
+    params = json.loads((root / "calibration" / "params.json").read_text())
+    states = pd.DataFrame(params["rheometer_states"])
+    loc = {k: v["value"] for k, v in params["local"].items()}
+    fig, (ax_mu, ax_nu) = plt.subplots(1, 2, figsize=(11, 4))
+    for pressure, sub in states.groupby("wall_pressure"):
+        ax_mu.errorbar(sub.I, sub.mu, xerr=sub.I_err, yerr=sub.mu_err, fmt="o", label=f"DEM, P = {pressure:g} Pa")
+        ax_nu.errorbar(sub.I, sub.nu, xerr=sub.I_err, yerr=sub.nu_err, fmt="o", label=f"DEM, P = {pressure:g} Pa")
+    grid = np.logspace(math.log10(states.I.min() / 2), math.log10(states.I.max() * 2), 100)
+    ax_mu.plot(grid, loc["mu_s"] + (loc["mu_2"] - loc["mu_s"]) / (1 + loc["I_0"] / grid), "k-", label="fit mu(I)")
+    ax_nu.plot(grid, loc["nu_c"] - loc["a"] * grid, "k-", label="fit nu(I) = nu_c - a I")
+    for ax in (ax_mu, ax_nu):
+        ax.set_xscale("log")
+        ax.set_xlabel("inertial number I (-)")
+        ax.legend(fontsize=8)
+    ax_mu.set_ylabel("stress ratio mu (-)")
+    ax_nu.set_ylabel("solid fraction nu (-)")
+    rows = []
+    for section in ("local", "critical_state"):
+        for name, e in params[section].items():
+            rows.append({"group": section, "parameter": name, "value": e["value"], "error": e["error"], "fitted on": e["fitted_on"]})
+    for model, entry in params.get("nonlocal", {}).items():
+        for name, e in entry.items():
+            value, err = e["value"], e["error"]
+            if name == "l":
+                name, value, err = "l / d", value / params["d"], err / params["d"]
+            rows.append({"group": model, "parameter": name, "value": value, "error": err, "fitted on": e["fitted_on"]})
+    return ("<h2>Calibration</h2><p class='note'>Local laws from the rheometer bulk (3 d from each wall); "
+            "errors are one standard error (covariance of weighted least squares). Reference values: glass beads "
+            "mu_s = 0.3819, mu_2 = 0.6435, I_0 = 0.279; frictional spheres mu_s ~ 0.36-0.40, nu_c ~ 0.58-0.59.</p>"
+            + figures.add("calibration", fig, "Rheometer states and the fitted local laws.")
+            + table_html(pd.DataFrame(rows)))
+
+
+# --------------------------------------------------------------------------------- stability
+def stability_section(root: Path, figures: Figures) -> str:
+    parts = ["<h2>Stability: where methods fail</h2>"]
+    wp = pd.read_csv(root / "stability" / "well_posedness.csv")
+    sets = sorted(wp.parameter_set.unique())
+    fig, axes = plt.subplots(1, len(sets), figsize=(4.2 * len(sets), 3.2), sharey=True, squeeze=False)
+    for ax, name in zip(axes[0], sets):
+        sub = wp[wp.parameter_set == name]
+        models = sorted(sub.model.unique())
+        for k, model in enumerate(models):
+            m = sub[sub.model == model]
+            ax.scatter(m.I, [k] * len(m), c=np.where(m.well_posed, "tab:green", "tab:red"), s=14, marker="s")
+        ax.set_yticks(range(len(models)), models, fontsize=7)
+        ax.set_xscale("log")
+        ax.set_xlabel("inertial number I (-)")
+        ax.set_title(name, fontsize=8)
+    parts.append(figures.add("well_posedness", fig, "Linear stability about simple shear: green well posed (growth bounded as the wavenumber grows), red ill posed."))
+    mesh_path = root / "stability" / "mesh_convergence.csv"
+    if mesh_path.exists():
+        mesh = pd.read_csv(mesh_path)
+        fig, ax = plt.subplots(figsize=(6, 4))
+        for (case, model), sub in mesh.groupby(["case", "model"]):
+            color, ls = MODEL_STYLE.get(model, ("grey", "-"))
+            ax.plot(sub.dx, sub.band_width, color=color, ls=ls, marker="o" if case == "shear_gravity" else "^", ms=3,
+                    label=f"{model} ({case})")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("grid spacing dx (m)")
+        ax.set_ylabel("shear-band width, 10-90 % of V (m)")
+        ax.legend(fontsize=6)
+        parts.append(figures.add("mesh_convergence", fig, "Shear-band width against grid spacing: a width that shrinks with dx is set by the grid, not by the model."))
+        summary = mesh.groupby(["case", "model"]).agg(converged=("converged", "last"), finest_band_width=("band_width", "last")).reset_index()
+        parts.append(table_html(summary))
+    cat_path = root / "stability" / "failure_catalogue.csv"
+    if cat_path.exists():
+        parts.append("<h3>Failure catalogue</h3>")
+        parts.append(table_html(pd.read_csv(cat_path).fillna("")))
+    return "\n".join(parts)
+
+
+# --------------------------------------------------------------------------------------- DEM
 def dem_table(runs: list[dict[str, Any]]) -> pd.DataFrame:
     """One row per DEM run: size, cost and the steady window."""
-    rows = []
-    for r in runs:
-        rows.append(
-            {
-                "case": r["case"],
-                "run": r["run"],
-                "grains": r["particle_count"],
-                "wall speed (m/s)": r["wall_speed"],
-                "steps": r["steps"],
-                "dt (s)": r["time_step"],
-                "LIGGGHTS seconds": r["wall_clock_seconds"],
-                "MPI ranks": r["mpi_ranks"],
-                "steady from (s)": r["steady_state_window"][0],
-                "end (s)": r["steady_state_window"][1],
-                "max overlap / d": r["max_overlap_over_d"],
-            }
-        )
-    return pd.DataFrame(rows)
+    return pd.DataFrame([{
+        "case": r["case"], "run": r["run"], "grains": r["particle_count"],
+        "wall speed (m/s)": r["wall_speed"], "wall pressure (Pa)": r["wall_pressure"], "steps": r["steps"],
+        "dt (s)": r["time_step"], "LIGGGHTS seconds": r["wall_clock_seconds"], "MPI ranks": r["mpi_ranks"],
+        "steady from (s)": r["steady_state_window"][0], "end (s)": r["steady_state_window"][1],
+        "max overlap / d": r["max_overlap_over_d"],
+    } for r in runs])
 
 
-def wall_series_figure(runs: list[dict[str, Any]]) -> str:
+def wall_series_figure(runs: list[dict[str, Any]], figures: Figures) -> str:
     """Wall friction coefficient and wall height against time, steady window shaded."""
     fig, (ax_mu, ax_h) = plt.subplots(1, 2, figsize=(11, 4))
     for r in runs:
-        frames = []
-        for series in sorted((r["_dir"] / "series").glob("*.txt")):
-            frames.append(read_wall_series(series))
+        frames = [read_wall_series(s) for s in sorted((r["_dir"] / "series").glob("*.txt"))]
         data = pd.concat(frames, ignore_index=True).sort_values("time")
         area = r["cell"][0] * r["cell"][1]
         label = f"{r['case']}/{r['run']}"
@@ -74,20 +282,47 @@ def wall_series_figure(runs: list[dict[str, Any]]) -> str:
     ax_mu.set_ylabel("wall shear stress / wall pressure (-)")
     ax_h.set_xlabel("time t (s)")
     ax_h.set_ylabel("top-wall height minus final height, in d (-)")
-    ax_mu.legend(fontsize=7)
-    return figure_html(fig, "Top-wall shear stress over the imposed normal stress, and wall height; shaded: steady window detected from the data.")
+    ax_mu.legend(fontsize=6)
+    return figures.add("wall_series", fig, "Top-wall shear stress over the imposed normal stress, and wall height; shaded: steady window detected from the data.")
 
 
-def build_report(config: dict[str, Any]) -> str:
+def fields_checks_table(root: Path, config: dict[str, Any]) -> pd.DataFrame:
+    rows = []
+    for case, run in dem_runs(config):
+        ds = xr.open_dataset(root / "fields" / case / f"{run}.nc")
+        row = {"case": case, "run": run, "snapshots": int(ds.attrs.get("number_of_snapshots", -1))}
+        for key, value in ds.attrs.items():
+            if key.startswith("check_") and any(s in key for s in ("balance_", "wall_series_")) and np.isscalar(value):
+                row[key[6:]] = float(value)
+        rows.append(row)
+        ds.close()
+    return pd.DataFrame(rows)
+
+
+def build_report(config: dict[str, Any], figure_dir: Path | None = None) -> str:
     """The whole HTML report."""
+    root = Path(config["output_root"])
+    figures = Figures(figure_dir)
     runs = load_runs(config)
+    params = json.loads((root / "calibration" / "params.json").read_text())
+    where = sorted({e["fitted_on"] for entry in params.get("nonlocal", {}).values() for e in entry.values()})
     sections = [
+        "<p>How well each continuum rheology reproduces LIGGGHTS DEM of dense granular shear: local mu(I) with "
+        "nu(I), local critical-state plasticity, Cosserat plasticity, non-local granular fluidity (NGF) and the "
+        "volume-averaged non-local model (Dsouza &amp; Nott), all calibrated on the DEM rheometer.</p>",
+        score_section(root, figures, ", ".join(where) or "(not fitted)"),
+        profiles_section(root, config, figures),
+        calibration_section(root, figures),
+        pareto_section(root, figures),
+        stability_section(root, figures),
         "<h2>DEM runs</h2>",
-        "<p class='note'>LIGGGHTS, Hertz contacts with tangential history, polydisperse spheres; "
-        "rough walls made of frozen grains. Stiffness and time step follow the rules in "
-        "<code>pipeline/contact_scaling.py</code>.</p>",
+        "<p class='note'>LIGGGHTS, Hertz contacts with tangential history, polydisperse spheres; rough walls "
+        "made of grain monolayers. Stiffness and time step follow <code>pipeline/contact_scaling.py</code>.</p>",
         table_html(dem_table(runs)),
-        wall_series_figure(runs),
+        wall_series_figure(runs, figures),
+        "<h3>Coarse-graining checks</h3><p class='note'>Momentum balance residuals in the bulk and coarse-grained "
+        "stress at the walls against the wall forces LIGGGHTS reports (fractions of p).</p>",
+        table_html(fields_checks_table(root, config)),
         "<h2>Provenance</h2>",
         table_html(pd.DataFrame(sorted(software_versions().items()), columns=["software", "version"])),
         f"<details><summary>configuration</summary><pre>{html.escape(json.dumps(config, indent=1))}</pre></details>",
@@ -99,11 +334,12 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description="Write the comparison report (self-contained HTML).")
     parser.add_argument("--config", required=True)
     parser.add_argument("--out", required=True)
+    parser.add_argument("--figures", type=Path, help="folder for the figures as PNG files")
     args = parser.parse_args(argv)
     config = load_config(args.config)
     out = Path(args.out)
     tmp = out.with_name(out.name + ".tmp")
-    tmp.write_text(build_report(config))
+    tmp.write_text(build_report(config, args.figures))
     tmp.replace(out)
     return 0
 

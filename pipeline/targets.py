@@ -2,10 +2,15 @@
 from __future__ import annotations
 
 import json
+import shlex
+import sys
 from pathlib import Path
 from typing import Any
 
 from pipeline.config import dem_config, dem_runs, validate_config
+
+#: Figures the report writes as PNG files (flagged with Snakemake's report()).
+REPORT_FIGURES = ("profiles", "calibration", "pareto", "well_posedness", "mesh_convergence", "wall_series")
 
 
 def checked(config: dict[str, Any], source: str = "workflow config") -> dict[str, Any]:
@@ -86,3 +91,24 @@ def nonlocal_calibration_fields(config: dict[str, Any]) -> str:
 def case_fields(wildcards: Any, config: dict[str, Any]) -> list[str]:
     """Input function body: the fields files of the case named by the wildcards."""
     return fields_paths(config, wildcards.case)
+
+
+# Params functions of the Snakefile (Snakemake passes wildcards, input, output by name).
+def output_folder(wildcards: Any, output: Any) -> str:
+    """Folder of a rule's first output (a DEM run folder)."""
+    return str(Path(output[0]).parent)
+
+
+def run_folder_of_input(wildcards: Any, input: Any) -> str:  # noqa: A002 (Snakemake's name)
+    """Folder of the rule's ``run`` input (run.json of a DEM run)."""
+    return str(Path(input.run).parent)
+
+
+def figure_folder(wildcards: Any, output: Any) -> str:
+    """Folder the report's figures are written to."""
+    return str(Path(output.figures[0]).parent)
+
+
+def python_path_prefix() -> str:
+    """Shell prefix putting the running interpreter's folder first on PATH (rules call ``python``)."""
+    return f"export PATH={shlex.quote(str(Path(sys.executable).parent))}:$PATH; "
