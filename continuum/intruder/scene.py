@@ -1,0 +1,152 @@
+"""The intruder scene: a rigid rod in the planar shear cell, the grid options, and the result.
+
+Frame and signs (as in the rest of ``continuum``): x along the top wall's motion, periodic with
+period ``cell_length_x``; z up from the fixed bottom wall (z = 0) to the moving top wall
+(z = depth); gravity along -z; stresses compressive positive. The rod spans y, so the problem is
+2D in x-z and forces are per unit length of rod (N m-1).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import xarray as xr
+
+from ..geometry import PlanarShear
+
+
+@dataclass(frozen=True)
+class RodIntruder:
+    """A rigid circular rod spanning the periodic y direction.
+
+    Attributes:
+        diameter: rod diameter D (m).
+        depth_from_bottom: height z_i of the rod's centre above the bottom wall (m); its depth
+            below the top wall is ``geometry.depth - depth_from_bottom``.
+        force_per_length: constant horizontal force F applied to the rod along +x, per unit
+            length of rod (N m-1). F >= 0.
+
+    The rod translates along x only: it is held at its height (no vertical motion) and does not
+    rotate, as a rod driven by a force spread evenly over its grains (LIGGGHTS ``fix aveforce``)
+    with its vertical position held. The vertical force and torque needed to hold it are reported.
+    """
+
+    diameter: float
+    depth_from_bottom: float
+    force_per_length: float
+
+    def __post_init__(self) -> None:
+        if not self.diameter > 0.0:
+            raise ValueError(f"RodIntruder.diameter must be positive, got {self.diameter!r}")
+        if self.force_per_length < 0.0:
+            raise ValueError(f"RodIntruder.force_per_length must be >= 0 (along +x), got {self.force_per_length!r}")
+
+    @property
+    def radius(self) -> float:
+        return 0.5 * self.diameter
+
+    @classmethod
+    def below_top(cls, geometry: PlanarShear, diameter: float, depth_below_top: float,
+                  force_per_length: float) -> "RodIntruder":
+        """Rod whose centre lies ``depth_below_top`` (m) under the top wall."""
+        return cls(diameter, geometry.depth - depth_below_top, force_per_length)
+
+    def check_inside(self, geometry: PlanarShear, cell_length_x: float) -> None:
+        """Raise ValueError unless the rod clears both walls and fits in the periodic cell."""
+        r, z = self.radius, self.depth_from_bottom
+        if not (r < z < geometry.depth - r):
+            raise ValueError(f"rod (centre z = {z!r} m, radius {r!r} m) does not fit between the walls")
+        if not self.diameter < cell_length_x:
+            raise ValueError(f"rod diameter {self.diameter!r} m is not smaller than the periodic length {cell_length_x!r} m")
+
+
+@dataclass(frozen=True)
+class GridOptions:
+    """Uniform x-z grid and nonlinear-iteration controls for the 2D solves.
+
+    Attributes:
+        cells_per_d: cells per grain diameter, the same in x and z; the counts are rounded so that
+            the periodic length and the depth are whole numbers of cells.
+        tolerance: convergence threshold on the largest change of ln(fluidity) between
+            iterations and on the relative top-wall speed error. Round-off in the stress where
+            the creep is 1e-7 of the wall speed puts a floor near 1e-6 on the first.
+        max_iterations: Picard iterations allowed before ``ConvergenceError``.
+        relaxation: weight of the new fluidity in the (logarithmic) update, in (0, 1].
+    """
+
+    cells_per_d: float = 5.0
+    tolerance: float = 1e-5
+    max_iterations: int = 200
+    relaxation: float = 1.0
+
+    def __post_init__(self) -> None:
+        if not self.cells_per_d > 0.0:
+            raise ValueError(f"cells_per_d must be positive, got {self.cells_per_d!r}")
+        if not 0.0 < self.relaxation <= 1.0:
+            raise ValueError(f"relaxation must be in (0, 1], got {self.relaxation!r}")
+
+    def counts(self, geometry: PlanarShear, cell_length_x: float) -> tuple[int, int]:
+        """(nx, nz) cell counts for the cell."""
+        nx = max(4, int(round(cell_length_x / geometry.d * self.cells_per_d)))
+        nz = max(4, int(round(geometry.depth / geometry.d * self.cells_per_d)))
+        return nx, nz
+
+
+@dataclass
+class IntruderSpeed:
+    """One model's prediction of the rod's steady speed.
+
+    Attributes:
+        model: model name (contract names).
+        speed: steady rod speed U along +x (m s-1).
+        converged, iterations, residual, solve_seconds, n_grid: as in the contract's model files
+            (n_grid = number of 2D cells; 0 when no 2D solve was needed).
+        method: how U was obtained ("2d" for a 2D solve, "yield_check" for the local models,
+            "kinematic" for the volume-averaged model).
+        drift_speed: the part of U at zero force with the converged viscosity field (m s-1;
+            the rod carried by the creep), NaN where not computed.
+        mobility: dU/dF at the converged viscosity field (m s-1 per N m-1), NaN where not computed.
+        yield_force: the model's estimate of the force that moves the rod when nothing else
+            would (N m-1), NaN where the model has none.
+        planar_solve_seconds: time of the 1D planar solve that gave the far field (s).
+        fields: 2D fields on the cell centres (x, z) for plotting (u_x, u_z, fluidity,
+            shear_rate, p, mu, solid), or None when no 2D solve was made.
+        attrs: extra diagnostics (top-wall shear stress, vertical force and torque on the rod...).
+    """
+
+    model: str
+    speed: float
+    converged: bool
+    iterations: int
+    residual: float
+    solve_seconds: float
+    n_grid: int
+    method: str
+    drift_speed: float = float("nan")
+    mobility: float = float("nan")
+    yield_force: float = float("nan")
+    planar_solve_seconds: float = float("nan")
+    fields: xr.Dataset | None = None
+    attrs: dict[str, float | int | str] = field(default_factory=dict)
+
+    def summary(self) -> dict[str, float | int | str]:
+        """Flat scalar record (for a CSV row or NetCDF attributes)."""
+        out: dict[str, float | int | str] = {
+            "model": self.model, "speed": float(self.speed), "converged": int(self.converged),
+            "iterations": int(self.iterations), "residual": float(self.residual),
+            "solve_seconds": float(self.solve_seconds), "n_grid": int(self.n_grid), "method": self.method,
+            "drift_speed": float(self.drift_speed), "mobility": float(self.mobility),
+            "yield_force": float(self.yield_force), "planar_solve_seconds": float(self.planar_solve_seconds),
+        }
+        out.update(self.attrs)
+        return out
+
+
+def disc_average(profile_z: np.ndarray, profile_values: np.ndarray, centre: float, radius: float,
+                 n: int = 401) -> float:
+    """Average over a disc of a field that depends on z only (area-weighted), by quadrature in
+    the angle t: z = centre - radius cos t, weight sin^2 t (exact for fields linear in z)."""
+    t = np.linspace(0.0, np.pi, n)
+    values = np.interp(centre - radius * np.cos(t), profile_z, profile_values)
+    w = np.sin(t) ** 2
+    return float(np.trapezoid(values * w, t) / np.trapezoid(w, t))
