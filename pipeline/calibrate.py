@@ -33,6 +33,7 @@ from continuum.parameters import (
     VolumeAveragedParameters,
 )
 from pipeline.config import load_config
+from pipeline.formats import open_fields
 from pipeline.provenance import provenance
 
 CALIBRATION_DEFAULTS: dict[str, Any] = {
@@ -64,7 +65,7 @@ def bulk_state(path: Path, margin_over_d: float) -> dict[str, float]:
     a bulk average is the mean of the pointwise standard errors: neighbouring points are
     correlated through the kernel and through the time blocks, so averaging does not reduce it.
     """
-    ds = xr.open_dataset(path)
+    ds = open_fields(path)
     d = float(ds.attrs["d"])
     z0, z1 = float(ds.attrs["z_bottom_wall"]), float(ds.attrs["z_top_wall"])
     bulk = ds.where((ds.z >= z0 + margin_over_d * d) & (ds.z <= z1 - margin_over_d * d), drop=True)

@@ -154,6 +154,25 @@ def _contact_index(particles: Dump, contacts: Dump, chosen: np.ndarray) -> np.nd
     return np.array([where[int(t)] for t in particles.timesteps[chosen]], dtype=np.int64)
 
 
+def check_contacts_match(particles: Dump, contacts: Dump, chosen: np.ndarray) -> None:
+    """Refuse a contact dump that is not of the particle dump's run: a contact snapshot for every
+    chosen particle snapshot, and both grains of every contact present in it (else the stress
+    would silently miss or misplace contacts). Raises :class:`CoarseGrainError` naming the files."""
+    where = _contact_index(particles, contacts, chosen)
+    if "id1" not in contacts.columns or "id" not in particles.columns:
+        return
+    for s, c in zip(chosen, where):
+        ids = particles.rows(int(s))[:, particles.index("id")]
+        pair = contacts.rows(int(c))[:, [contacts.index("id1"), contacts.index("id2")]]
+        absent = np.setdiff1d(pair.ravel(), ids)
+        if absent.size:
+            raise CoarseGrainError(
+                f"{', '.join(contacts.sources)}: contacts at step {int(contacts.timesteps[c])} name grain id(s) "
+                f"{absent[:5].astype(np.int64).tolist()} absent from the particle dump "
+                f"({', '.join(particles.sources)}): the contact dump is not of this run"
+            )
+
+
 def _rows(dump: Dump, snaps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Rows of several snapshots and the batch index (0..len(snaps)-1) of each row."""
     counts = dump.counts[snaps]

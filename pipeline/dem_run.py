@@ -36,8 +36,9 @@ import numpy as np
 import pandas as pd
 
 from pipeline import liggghts_render as render
-from pipeline.config import dem_config, derived_seed, liggghts_seed, load_config, rheometer_states, run_state
+from pipeline.config import ConfigError, dem_config, derived_seed, liggghts_seed, load_config, rheometer_states, run_state
 from pipeline.contact_scaling import ContactDesign, design_contacts
+from pipeline.formats import RUN_FORMAT_VERSION
 from pipeline.liggghts_log import DEMRunError, check_run, printed_value
 from pipeline.provenance import provenance
 from pipeline.rough_wall import layer_include, random_layer
@@ -404,7 +405,7 @@ class PlanarShearRun:
         if ke_ratio > self.dem["max_ke_ratio"]:
             raise DEMRunError(
                 f"{self.label} stage {stage}: kinetic energy blew up ({ke_ratio:.3g} x (m V^2/2 + P d^3) per grain, "
-                f"limit {self.dem['max_ke_ratio']:g}): time step too large or walls too soft?"
+                f"limit dem.max_ke_ratio = {self.dem['max_ke_ratio']:g}): time step too large or walls too soft?"
             )
         max_overlap = float(series["max_overlap"].max()) / d
         if max_overlap > self.mat["max_overlap"]:
@@ -468,6 +469,7 @@ class PlanarShearRun:
         prod_height = drift_test(prod_series["time"], prod_series["h_top"], self.dem["steady_height_tol"], depth)
         sizes = render.size_classes(self.mat["d"], self.mat["polydispersity"], self.mat["n_sizes"])
         return {
+            "format_version": RUN_FORMAT_VERSION,
             "case": self.case_name,
             "run": self.run_id,
             "geometry": self.case["geometry"],
@@ -543,6 +545,6 @@ def main(argv: list[str] | None = None) -> int:
 if __name__ == "__main__":
     try:
         sys.exit(main())
-    except DEMRunError as exc:
+    except (DEMRunError, ConfigError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         sys.exit(1)

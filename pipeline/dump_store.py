@@ -27,6 +27,7 @@ import netCDF4
 import numpy as np
 
 from pipeline.dumps import Dump, DumpError, contact_view, particle_view, read_contacts, read_particles
+from pipeline.formats import check_run_record
 
 STORE_NAME = "dumps.nc"
 _TABLES = ("particle", "contact")
@@ -99,7 +100,12 @@ def read_run_json(run_dir: Path) -> dict[str, Any]:
     path = Path(run_dir) / "run.json"
     if not path.is_file():
         raise DumpError(f"{path}: run.json not found (did the DEM run finish?)")
-    return json.loads(path.read_text())
+    try:
+        run = json.loads(path.read_text())
+    except json.JSONDecodeError as exc:
+        raise DumpError(f"{path}:{exc.lineno}: not valid JSON ({exc.msg})") from None
+    check_run_record(run, path)
+    return run
 
 
 def parse_run(run_dir: Path, run: dict[str, Any] | None = None) -> tuple[Dump, Dump | None]:

@@ -30,10 +30,11 @@ import pandas as pd
 import xarray as xr
 
 from pipeline import field_checks
-from pipeline.coarse_grain import CoarseGrainError, Result, coarse_grain, plane_grid, profile_grid, write_netcdf
+from pipeline.coarse_grain import CoarseGrainError, Result, check_contacts_match, coarse_grain, plane_grid, profile_grid, write_netcdf
 from pipeline.dump_store import STORE_NAME, parse_run, read_run_json, read_store
 from pipeline.dumps import Dump, DumpError
 from pipeline.kernels import Kernel
+from pipeline.formats import FIELDS_FORMAT_VERSION
 from pipeline.provenance import provenance_attrs
 from pipeline.wall_series import read_wall_series
 
@@ -70,9 +71,31 @@ def steady_snapshots(particles: Dump, run: dict[str, Any]) -> np.ndarray:
     dt = run["time_step"]
     chosen = np.nonzero((times >= t0 - 0.5 * dt) & (times <= t1 + 0.5 * dt))[0]
     if chosen.size == 0:
-        raise CoarseGrainError(f"no dump snapshot inside the steady window [{t0}, {t1}] s "
+        raise CoarseGrainError(f"no dump snapshot inside run.json steady_state_window [{t0}, {t1}] s "
                                f"(dumps span {times.min()}-{times.max()} s)")
+    check_dump_coverage(particles, run)
     return chosen
+
+
+def check_dump_coverage(particles: Dump, run: dict[str, Any]) -> None:
+    """Refuse particle dumps with snapshots missing inside or at the end of the window.
+
+    A dump cut exactly between two snapshots parses cleanly; only run.json's ``dump_every`` (LIGGGHTS
+    dumps on multiples of it) tells that snapshots are missing. Runs without it are not checked.
+    """
+    every = run.get("dump_every")
+    if not every:
+        return
+    steps = particles.timesteps
+    gaps = np.nonzero(np.diff(steps) > every)[0]
+    files = ", ".join(particles.sources)
+    if gaps.size:
+        raise CoarseGrainError(f"{files}: no snapshot between steps {int(steps[gaps[0]])} and {int(steps[gaps[0] + 1])} "
+                               f"(run.json dump_every = {every}): a truncated or missing dump file?")
+    t_end = run["steady_state_window"][1]
+    if (steps[-1] + every) * run["time_step"] < t_end:
+        raise CoarseGrainError(f"{files}: the last snapshot (step {int(steps[-1])}) is more than dump_every = {every} "
+                               f"steps before the end of run.json steady_state_window ({t_end} s): a truncated dump?")
 
 
 def production_series(run_dir: Path) -> pd.DataFrame:
@@ -91,6 +114,8 @@ def run_fields(config: dict[str, Any], run_dir: Path, plane: bool = False,
     opts = settings(config)
     particles, contacts = load_tables(run_dir, run)
     chosen = steady_snapshots(particles, run)
+    if contacts is not None:
+        check_contacts_match(particles, contacts, chosen)
     d = float(run["d"])
     kernel = Kernel(opts["kernel"], width if width is not None else opts["width_over_d"] * d)
     walls = field_checks.wall_geometry(particles, chosen)
@@ -106,6 +131,7 @@ def run_fields(config: dict[str, Any], run_dir: Path, plane: bool = False,
     ds = result.dataset
     ds.attrs.update(provenance_attrs(config))
     ds.attrs.update({
+        "format_version": FIELDS_FORMAT_VERSION,
         "case": run.get("case", ""), "run": run.get("run", ""),
         "dem_provenance_json": json.dumps(run.get("provenance", {}), sort_keys=True),
         "steady_state_window": np.asarray(run["steady_state_window"], dtype=float),

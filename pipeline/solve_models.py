@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -23,6 +24,7 @@ import continuum
 from continuum.geometry import PlanarShear
 from pipeline.calibrate import model_parameters
 from pipeline.config import load_config
+from pipeline.formats import FormatError, open_fields
 from pipeline.provenance import provenance_attrs
 
 MODELS_DEFAULTS: dict[str, Any] = {"n_grid": 400}
@@ -85,8 +87,12 @@ def main(argv: list[str] | None = None) -> int:
     config = load_config(args.config)
     params = json.loads(args.params.read_text())
     n_grid = int((MODELS_DEFAULTS | (config.get("models") or {}))["n_grid"])
-    fields = [xr.open_dataset(f) for f in args.fields]
-    solution = solve_on_case(args.model, args.case, params, fields, n_grid)
+    try:
+        fields = [open_fields(f) for f in args.fields]
+        solution = solve_on_case(args.model, args.case, params, fields, n_grid)
+    except (ModelRunError, FormatError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 1
     solution.attrs.update(provenance_attrs(config))
     args.out.parent.mkdir(parents=True, exist_ok=True)
     tmp = args.out.with_name(args.out.name + ".tmp")
