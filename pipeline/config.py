@@ -82,6 +82,13 @@ def run_ids(case_name: str, case: dict[str, Any]) -> list[str]:
     replicas = [f"r{k + 1}" for k in range(case["replicas"])]
     if case_name == "rheometer":
         return [f"I{i:g}-P{p:g}-{rep}" for i, p in rheometer_states(case) for rep in replicas]
+    if case["geometry"] == "intruder":
+        # D<depth in d>-r<k>; the control (top wall at rest) at the shallowest depth: D<depth>-control-r<k>.
+        depths = case["depths_below_top"]
+        runs = [f"D{depth:g}-{rep}" for depth in depths for rep in replicas]
+        if case.get("control", False):
+            runs += [f"D{min(depths):g}-control-{rep}" for rep in replicas]
+        return runs
     return replicas
 
 
@@ -99,6 +106,17 @@ def run_state(run: str) -> tuple[float, float]:
     if match is None:
         raise ValueError(f"run id {run!r} is not a rheometer run id (expected 'I<inertial number>-P<pressure>-r<k>')")
     return float(match.group(1)), float(match.group(2))
+
+
+_INTRUDER_RUN = re.compile(r"^D([0-9.eE+-]+)-(control-)?(r\d+)$")
+
+
+def intruder_run(run: str) -> tuple[float, bool, str]:
+    """Depth below the top wall (in d), control flag and replica of an intruder run id (``D6-control-r1``)."""
+    match = _INTRUDER_RUN.match(run)
+    if match is None:
+        raise ValueError(f"run id {run!r} is not an intruder run id (expected 'D<depth in d>-[control-]r<k>')")
+    return float(match.group(1)), match.group(2) is not None, match.group(3)
 
 
 def derived_seed(master_seed: int, *labels: str) -> int:

@@ -236,7 +236,9 @@ class PlanarShearRun:
         (self.run_dir / "bottom_wall.in").write_text(layer_include(bottom, 2, z_bottom, rho, first_id=1))
         top = random_layer(self.case["cell_x"] * d, self.case["cell_y"] * d, sizes,
                            np.random.default_rng(derived_seed(self.seed, "top_wall")))
-        first_top_id = len(bottom) + self.case["n_grains"] + 1
+        # Bodies created before the pour (an intruder) take the ids after the bottom wall.
+        n_bodies = self._write_fill_bodies(first_id=len(bottom) + 1, z_bottom=z_bottom)
+        first_top_id = len(bottom) + n_bodies + self.case["n_grains"] + 1
         (self.run_dir / "top_wall.in").write_text(layer_include(top, 3, "${z_top_wall}", rho, first_id=first_top_id))
         seeds = [liggghts_seed(self.seed, "size", str(k)) for k in range(self.mat["n_sizes"])]
         (self.run_dir / "grains.in").write_text(
@@ -308,8 +310,28 @@ class PlanarShearRun:
         shear_rate = target * math.sqrt(self.wall_pressure / self.mat["rho_s"]) / self.mat["d"]
         return shear_rate * self.state["fill"]["settled_gap"]
 
+    def reference_speed(self) -> float:
+        """Speed (m/s) that sets the chunk length and the kinetic-energy scale: the wall speed.
+
+        Overridden by runs whose wall is at rest (an intruder's control run), which keep the
+        chunk length of the sheared runs they are compared with.
+        """
+        return self.wall_speed()
+
+    def _write_fill_bodies(self, first_id: int, z_bottom: float) -> int:
+        """Hook: write include files for bodies created before the pour; return their atom count.
+
+        ``first_id`` is the id LIGGGHTS gives the first such atom; ``z_bottom`` (m) is the height of
+        the bottom wall's centres. Planar shear has none.
+        """
+        return 0
+
+    def _chunk_variables(self, stage: str) -> dict[str, object]:
+        """Hook: extra template variables of one shear or production chunk (none for planar shear)."""
+        return {}
+
     def _chunk_plan(self) -> dict[str, int]:
-        v = self.wall_speed()
+        v = self.reference_speed()
         samples = self.dem["series_samples_per_chunk"]
         duration = self.dem["chunk_strain"] * self.state["fill"]["settled_gap"] / v
         nevery = max(1, int(round(duration / self.design.dt / samples / 10)))
@@ -379,7 +401,7 @@ class PlanarShearRun:
             "particle_dump": f"dumps/particles_{index:03d}.dump",
             "contact_dump": f"dumps/contacts_{index:03d}.dump",
             "contact_columns": [f"c_pgl[{k}]" for k in range(1, len(CONTACT_COLUMNS) + 1)],
-        }
+        } | self._chunk_variables(stage)
         render.render_stage(self.run_dir, stage, "shear.in", variables)
         seconds = run_liggghts(self.launcher, self.run_dir, stage, self.label)
         series = read_wall_series(self.run_dir / variables["series_file"])
@@ -397,7 +419,7 @@ class PlanarShearRun:
 
     def _check_series(self, series: pd.DataFrame, stage: str) -> None:
         d = self.mat["d"]
-        v = self.wall_speed()
+        v = self.reference_speed()
         n_flow = self.case["n_grains"]
         m_grain = self.mat["rho_s"] * mean_grain_volume(d, self.mat["polydispersity"], self.mat["n_sizes"])
         scale = 0.5 * m_grain * v**2 + self.wall_pressure * d**3
@@ -536,7 +558,12 @@ def main(argv: list[str] | None = None) -> int:
     if args.case not in config["cases"]:
         parser.error(f"case {args.case!r} is not in {args.config} (cases: {', '.join(config['cases'])})")
     out = Path(args.out) if args.out else Path(config["output_root"]) / "dem" / args.case / args.run
-    record = PlanarShearRun(config, args.case, args.run, out).run()
+    runner: type[PlanarShearRun] = PlanarShearRun
+    if config["cases"][args.case]["geometry"] == "intruder":
+        from pipeline.intruder_run import IntruderRun  # imports this module: imported here, not at the top
+
+        runner = IntruderRun
+    record = runner(config, args.case, args.run, out).run()
     write_json_atomic(out / "run.json", record)
     print(f"{args.case}/{args.run}: {record['steps']} steps in {record['wall_clock_seconds']:.1f} s of LIGGGHTS")
     return 0
