@@ -132,7 +132,8 @@ class _Lines:
         end = self.raw.find(b"\n", self.pos)
         end = len(self.raw) if end < 0 else end
         text = self.raw[self.pos:end].decode("ascii", errors="replace").strip()
-        self.pos, self.line = end + 1, self.line + 1
+        # Never past the end: a last line without its newline must leave the data blocks inside the file.
+        self.pos, self.line = min(end + 1, len(self.raw)), self.line + 1
         return text
 
     def expect(self, prefix: str) -> str:
@@ -251,6 +252,11 @@ def _read_mapped(raw: mmap.mmap, path: Path, threads: int | None) -> Dump:
     else:
         for i in range(len(blocks)):
             parse(i)
+    # LIGGGHTS ends every line with a newline. A last line without one was cut while being written:
+    # a cut inside its last number would otherwise parse as a different, valid number.
+    if raw[len(raw) - 1:] != b"\n":
+        last_line = raw[:].count(b"\n") + 1
+        raise DumpError(f"{path}:{last_line}: the file ends inside a line (truncated?)")
     return Dump(kind, names, np.array([b.timestep for b in blocks], dtype=np.int64),
                 np.stack([b.box for b in blocks]), boundary, offsets, data, (str(path),))
 
