@@ -39,6 +39,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import scipy.sparse as sp
 import xarray as xr
 
 from pipeline.dumps import Dump, DumpError, read_contacts, read_particles
@@ -133,6 +134,7 @@ class SnapshotData:
     psid: np.ndarray | None = None
     csid: np.ndarray | None = None
     areas: np.ndarray | None = None
+    lengths: np.ndarray | None = None  # (snapshots, 3) m, box lengths of each snapshot of a batch
 
     @property
     def nsnap(self) -> int:
@@ -142,7 +144,7 @@ class SnapshotData:
 def snapshot(particles: Dump, contacts: Dump | None, s: int, body_types: Sequence[int] | None = (1,)) -> SnapshotData:
     """Arrays of particle snapshot ``s`` and of the contact snapshot at the same timestep."""
     data = batch(particles, contacts, np.array([s]), body_types)
-    data.psid = data.csid = data.areas = None
+    data.psid = data.csid = data.areas = data.lengths = None
     return data
 
 
@@ -215,7 +217,7 @@ def batch(particles: Dump, contacts: Dump | None, chosen: np.ndarray,
         r1 = branch = force = np.zeros((0, 3))
         csid = np.zeros(0, dtype=np.int64)
     return SnapshotData(pos, vel, mass, 4.0 / 3.0 * math.pi * radius**3, body, r1, branch, force, boxes[0], periodic,
-                        psid, csid, lengths[:, 0] * lengths[:, 1])
+                        psid, csid, lengths[:, 0] * lengths[:, 1], lengths)
 
 
 def _window(start: np.ndarray, span: float, origin: float, step: float, n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -226,126 +228,242 @@ def _window(start: np.ndarray, span: float, origin: float, step: float, n: int) 
     return idx, (idx >= 0) & (idx < n)
 
 
-def _bincount(idx: np.ndarray, weights: np.ndarray, n: int) -> np.ndarray:
-    return np.bincount(idx, weights=weights, minlength=n)[:n]
+#: Window entries (rows x window points) computed in one vectorised step. Chunks this size keep
+#: the temporaries in cache and below malloc's mmap threshold: one pass over fresh large arrays
+#: costs as much in page faults as in arithmetic.
+CHUNK = 16_384
 
 
-def profile_sums(data: SnapshotData, kernel: Kernel, grid: Grid) -> np.ndarray:
+def _chunks(rows: int | np.ndarray, width: int, chunk: int = CHUNK) -> list:
+    """Row selections (slices, or index arrays when ``rows`` is an index array) of about ``chunk`` entries."""
+    step = max(1, chunk // max(width, 1))
+    if isinstance(rows, np.ndarray):
+        return [rows[i:i + step] for i in range(0, rows.size, step)]
+    return [slice(i, min(i + step, rows)) for i in range(0, rows, step)]
+
+
+def _deposit(flat: np.ndarray, values: np.ndarray, size: int, weights: np.ndarray) -> np.ndarray:
+    """``out[k, q] = sum_{i, j: flat[i, j] = k} values[i, j] weights[i, q]``, shape (size, q).
+
+    One sparse (bins x rows) matrix built straight from the windows (every row owns a fixed
+    number of entries, so the CSC structure needs no sorting), applied to all weight columns at
+    once: the particle -> grid weights are computed once and reused for every field."""
+    n = values.shape[0]
+    if n == 0:
+        return np.zeros((size, weights.shape[1]))
+    width = values.size // n
+    itype = np.int32 if max(size, values.size) < 2**31 - 1 else np.int64
+    matrix = sp.csc_matrix((values.reshape(-1), flat.reshape(-1).astype(itype, copy=False),
+                            np.arange(0, n * width + 1, width, dtype=itype)), shape=(size, n))
+    return np.asarray(matrix @ weights)
+
+
+def _index_type(size: int, entries: int) -> type:
+    return np.int32 if max(size, entries) < 2**31 - 1 else np.int64
+
+
+def _particle_weights(data: SnapshotData) -> tuple[np.ndarray, np.ndarray]:
+    """Per-particle weights of the kernel sums (the first ten :data:`SUMS`) and of its derivative
+    (``dmass``, ``dmom_x``)."""
+    m, v = data.mass, data.vel
+    mvx = m * v[:, 0]
+    phi_w = np.column_stack([m, m * data.body, data.volume, mvx, m * v[:, 1], m * v[:, 2],
+                             mvx * v[:, 0], m * v[:, 1] ** 2, m * v[:, 2] ** 2, mvx * v[:, 2]])
+    return phi_w, np.column_stack([m, mvx])
+
+
+#: Index pairs (a, b) of the contact sums c_xx, c_yy, c_zz, c_xz, c_zx (f_a r_b).
+_CONTACT_AB = ((0, 0), (1, 1), (2, 2), (0, 2), (2, 0))
+_PHI_SUMS = [SUMS.index(n) for n in ("mass", "mass_body", "volume", "mom_x", "mom_y", "mom_z",
+                                     "mvv_xx", "mvv_yy", "mvv_zz", "mvv_xz")]
+_DPHI_SUMS = [SUMS.index("dmass"), SUMS.index("dmom_x")]
+_CONTACT_SUMS = [SUMS.index(n) for n in ("c_xx", "c_yy", "c_zz", "c_xz", "c_zx")]
+
+
+def _contact_weights(data: SnapshotData, sl: slice = slice(None)) -> np.ndarray:
+    f, r = data.force[sl], data.branch[sl]
+    return np.column_stack([f[:, a] * r[:, b] for a, b in _CONTACT_AB])
+
+
+class _CdfTable:
+    """``kernel.cdf(z0 + k dz - h)`` for each distinct contact-end height ``h`` on the grid points
+    ``k`` of that height's own window, evaluated once per height (a grain's height repeats in
+    each of its contacts) and looked up for every contact.
+
+    Outside a height's window the argument is beyond the cut-off, where ``cdf`` is the constant
+    ``cdf(-c)`` (below) or ``cdf(c)`` (above): its value for any argument past the cut-off."""
+
+    def __init__(self, kernel: Kernel, z: np.ndarray, z0: float, dz: float, nz: int) -> None:
+        c = kernel.cutoff
+        heights, self.inverse = np.unique(z, return_inverse=True)
+        self.width = int(math.floor(2 * c / dz)) + 2
+        self.table = np.empty((heights.size, self.width + 2))
+        self.first = np.empty(heights.size, np.int64)
+        for sl in _chunks(heights.size, self.width):
+            hidx, _ = _window(heights[sl] - c, 2 * c, z0, dz, nz)
+            self.first[sl] = hidx[:, 0]
+            self.table[sl, 1:-1] = kernel.cdf(z0 + hidx * dz - heights[sl, None])
+        self.table[:, 0], self.table[:, -1] = np.asarray(kernel.cdf(np.array([-c, c])), dtype=np.float64).reshape(2)
+        self.flat = self.table.reshape(-1)
+
+    def __call__(self, ends: np.ndarray, idx: np.ndarray) -> np.ndarray:
+        """The cdf for the contact ends ``ends`` (positions in the ``z`` given) at grid indices ``idx``."""
+        which = self.inverse[ends]
+        col = idx - (self.first[which] - 1)[:, None]
+        np.clip(col, 0, self.width + 1, out=col)
+        col += (which * (self.width + 2))[:, None]
+        return self.flat[col]
+
+
+def _contact_profile(data: SnapshotData, kernel: Kernel, z0: float, dz: float, nz: int,
+                     csid: np.ndarray, dummy: int) -> tuple[np.ndarray, np.ndarray]:
+    """Windows (flat bin indices, off-grid entries at bin ``dummy``) and exact branch weights (zero
+    off the grid) of the contacts on a z profile."""
+    c = kernel.cutoff
+    z1 = np.ascontiguousarray(data.r1[:, 2])
+    z2 = z1 - data.branch[:, 2]
+    n = z1.size
+    lo = np.minimum(z1, z2) - c
+    span = float(np.max(np.abs(data.branch[:, 2]))) + 2 * c
+    width = int(math.floor(span / dz)) + 2
+    # Contacts with no grid point inside their support [min z - c, max z + c] contribute nothing
+    # (beyond the cut-off both cdf values are the same constant, so the weight is exactly 0): skip
+    # them. The slack of 1e-9 c only guards the rounding of the bounds.
+    slack = 1e-9 * c
+    kmin = np.maximum(np.ceil((lo - slack - z0) / dz), 0.0)
+    kmax = np.minimum(np.floor((np.maximum(z1, z2) + c + slack - z0) / dz), nz - 1.0)
+    rows = np.nonzero(kmin <= kmax)[0]
+    flat = np.full((n, width), dummy, dtype=_index_type(dummy + 1, n * width))
+    weight = np.zeros((n, width))
+    if rows.size == 0:
+        return flat, weight
+    cdf = _CdfTable(kernel, np.concatenate([z1[rows], z2[rows]]), z0, dz, nz)
+    m = rows.size
+    for part in _chunks(np.arange(m), width):
+        sel = rows[part]
+        idx, ok = _window(lo[sel], span, z0, dz, nz)
+        zk = z0 + idx * dz
+        values = kernel.segment(zk - z1[sel, None], zk - z2[sel, None], cdf1=cdf(part, idx), cdf2=cdf(part + m, idx))
+        values[~ok] = 0.0
+        weight[sel] = values
+        flat[sel] = np.where(ok, idx + (csid[sel] * nz)[:, None], dummy)
+    return flat, weight
+
+
+def profile_sums(data: SnapshotData, kernel: Kernel, grid: Grid, particles: bool = True) -> np.ndarray:
     """The :data:`SUMS` on a z profile, per unit area: (len(SUMS), nz) for one snapshot, or
-    (snapshots, len(SUMS), nz) for a batch (:func:`batch`)."""
+    (snapshots, len(SUMS), nz) for a batch (:func:`batch`).
+
+    ``particles=False`` computes the contact sums only (the particle sums are left zero)."""
     nz, z0, dz = grid.z.size, float(grid.z[0]), grid.dz
     nsnap = data.nsnap
     c = kernel.cutoff
-    out = np.zeros((len(SUMS), nsnap * (nz + 1)))
-    # Rows of snapshot s go to bins s (nz + 1) + k; index nz of each block collects the
-    # window entries that fall off the grid and is discarded.
+    # Rows of snapshot s go to bins s nz + k; bin nsnap nz collects the window entries that fall
+    # off the grid and is discarded.
+    dummy = nsnap * nz
+    size = dummy + 1
+    out = np.zeros((size, len(SUMS)))
     psid = np.zeros(data.mass.size, np.int64) if data.psid is None else data.psid
     csid = np.zeros(data.force.shape[0], np.int64) if data.csid is None else data.csid
-    size = nsnap * (nz + 1)
-    if data.mass.size:
-        idx, ok = _window(data.pos[:, 2] - c, 2 * c, z0, dz, nz)
-        u = z0 + idx * dz - data.pos[:, 2:3]
-        phi = np.where(ok, kernel.pdf(u), 0.0)
-        dphi = np.where(ok, kernel.dpdf(u), 0.0)
-        flat = (np.where(ok, idx, nz) + (psid * (nz + 1))[:, None]).ravel()
-        m, v = data.mass, data.vel
-        mvx = m * v[:, 0]
-        weights = {
-            "mass": m, "mass_body": m * data.body, "volume": data.volume,
-            "mom_x": mvx, "mom_y": m * v[:, 1], "mom_z": m * v[:, 2],
-            "mvv_xx": mvx * v[:, 0], "mvv_yy": m * v[:, 1] ** 2, "mvv_zz": m * v[:, 2] ** 2,
-            "mvv_xz": mvx * v[:, 2],
-        }
-        for name, wgt in weights.items():
-            out[SUMS.index(name)] = np.bincount(flat, (phi * wgt[:, None]).ravel(), size)
-        out[SUMS.index("dmass")] = np.bincount(flat, (dphi * m[:, None]).ravel(), size)
-        out[SUMS.index("dmom_x")] = np.bincount(flat, (dphi * mvx[:, None]).ravel(), size)
+    n = data.mass.size
+    if particles and n:
+        z = np.ascontiguousarray(data.pos[:, 2])
+        width = int(math.floor(2 * c / dz)) + 2
+        phi, dphi = np.empty((n, width)), np.empty((n, width))
+        flat = np.empty((n, width), dtype=_index_type(size, n * width))
+        for sl in _chunks(n, width):
+            idx, ok = _window(z[sl] - c, 2 * c, z0, dz, nz)
+            p, dp = kernel.pdf_dpdf(z0 + idx * dz - z[sl, None])
+            p[~ok] = 0.0
+            dp[~ok] = 0.0
+            phi[sl], dphi[sl] = p, dp
+            flat[sl] = np.where(ok, idx + (psid[sl] * nz)[:, None], dummy)
+        phi_w, dphi_w = _particle_weights(data)
+        out[:, _PHI_SUMS] = _deposit(flat, phi, size, phi_w)
+        out[:, _DPHI_SUMS] = _deposit(flat, dphi, size, dphi_w)
     if data.force.shape[0]:
-        z1 = data.r1[:, 2]
-        z2 = z1 - data.branch[:, 2]
-        lo = np.minimum(z1, z2)
-        span = float(np.max(np.abs(data.branch[:, 2]))) + 2 * c
-        idx, ok = _window(lo - c, span, z0, dz, nz)
-        zk = z0 + idx * dz
-        weight = np.where(ok, kernel.segment(zk - z1[:, None], zk - z2[:, None]), 0.0)
-        flat = (np.where(ok, idx, nz) + (csid * (nz + 1))[:, None]).ravel()
-        f, r = data.force, data.branch
-        for name, a, b in (("c_xx", 0, 0), ("c_yy", 1, 1), ("c_zz", 2, 2), ("c_xz", 0, 2), ("c_zx", 2, 0)):
-            out[SUMS.index(name)] = np.bincount(flat, (weight * (f[:, a] * r[:, b])[:, None]).ravel(), size)
-    out = out.reshape(len(SUMS), nsnap, nz + 1)[:, :, :nz].transpose(1, 0, 2)
+        flat, weight = _contact_profile(data, kernel, z0, dz, nz, csid, dummy)
+        out[:, _CONTACT_SUMS] = _deposit(flat, weight, size, _contact_weights(data))
+    out = out[:-1].reshape(nsnap, nz, len(SUMS)).transpose(0, 2, 1)
     if data.areas is None:
         return out[0] / float(np.prod(data.box[:2, 1] - data.box[:2, 0]))
     return out / data.areas[:, None, None]
 
 
 def plane_sums(data: SnapshotData, kernel: Kernel, grid: Grid) -> np.ndarray:
-    """The :data:`SUMS` of one snapshot on an x-z grid, per unit length in y: (len(SUMS), nx, nz).
+    """The :data:`SUMS` on an x-z grid, per unit length in y: (len(SUMS), nx, nz) for one snapshot,
+    or (snapshots, len(SUMS), nx, nz) for a batch (:func:`batch`), all snapshots in one pass.
 
     x is periodic (the grid spans the box); the kernel's support must fit in the box."""
     assert grid.x is not None
     nx, nz = grid.x.size, grid.z.size
     x0, dx, z0, dz = float(grid.x[0]), grid.dx, float(grid.z[0]), grid.dz
-    lx = float(data.box[0, 1] - data.box[0, 0])
-    ly = float(data.box[1, 1] - data.box[1, 0])
+    nsnap = data.nsnap
+    lengths = (data.box[:, 1] - data.box[:, 0])[None, :] if data.lengths is None else data.lengths
+    lx, ly = lengths[:, 0], lengths[:, 1]
     c = kernel.cutoff
-    out = np.zeros((len(SUMS), nx * nz + 1))
+    cells = nx * nz
+    size = nsnap * cells + 1  # the last bin collects the off-grid entries
+    out = np.zeros((size, len(SUMS)))
     if not data.periodic[0]:
         raise CoarseGrainError("x-z fields need a periodic x direction")
+    psid = np.zeros(data.mass.size, np.int64) if data.psid is None else data.psid
+    csid = np.zeros(data.force.shape[0], np.int64) if data.csid is None else data.csid
 
-    def particle_part() -> None:
+    if data.mass.size:
         ix, _ = _window(data.pos[:, 0] - c, 2 * c, x0, dx, 10**18)
-        if 2 * c >= lx:
-            raise CoarseGrainError(f"kernel support 2 x {c:.3g} m exceeds the periodic length {lx:.3g} m")
-        ux = x0 + ix * dx - data.pos[:, 0:1]
+        if 2 * c >= lx.min():
+            raise CoarseGrainError(f"kernel support 2 x {c:.3g} m exceeds the periodic length {lx.min():.3g} m")
+        px = kernel.pdf(x0 + ix * dx - data.pos[:, 0:1])
         iz, okz = _window(data.pos[:, 2] - c, 2 * c, z0, dz, nz)
-        uz = z0 + iz * dz - data.pos[:, 2:3]
-        px = kernel.pdf(ux)
-        pz = np.where(okz, kernel.pdf(uz), 0.0)
-        dpz = np.where(okz, kernel.dpdf(uz), 0.0)
-        flat = np.where(okz[:, None, :], (ix % nx)[:, :, None] * nz + iz[:, None, :], nx * nz).reshape(len(ix), -1)
-        phi = (px[:, :, None] * pz[:, None, :]).reshape(len(ix), -1)
-        dphi = (px[:, :, None] * dpz[:, None, :]).reshape(len(ix), -1)
-        m, v = data.mass, data.vel
-        weights = {
-            "mass": m, "mass_body": m * data.body, "volume": data.volume,
-            "mom_x": m * v[:, 0], "mom_y": m * v[:, 1], "mom_z": m * v[:, 2],
-            "mvv_xx": m * v[:, 0] ** 2, "mvv_yy": m * v[:, 1] ** 2, "mvv_zz": m * v[:, 2] ** 2,
-            "mvv_xz": m * v[:, 0] * v[:, 2],
-        }
-        for name, wgt in weights.items():
-            out[SUMS.index(name)] = _bincount(flat.ravel(), (phi * wgt[:, None]).ravel(), nx * nz + 1)
-        out[SUMS.index("dmass")] = _bincount(flat.ravel(), (dphi * m[:, None]).ravel(), nx * nz + 1)
-        out[SUMS.index("dmom_x")] = _bincount(flat.ravel(), (dphi * (m * v[:, 0])[:, None]).ravel(), nx * nz + 1)
+        pz, dpz = kernel.pdf_dpdf(z0 + iz * dz - data.pos[:, 2:3])
+        pz[~okz] = 0.0
+        dpz[~okz] = 0.0
+        n = ix.shape[0]
+        flat = np.where(okz[:, None, :], (ix % nx)[:, :, None] * nz + iz[:, None, :] + (psid * cells)[:, None, None],
+                        nsnap * cells).reshape(n, -1)
+        phi = (px[:, :, None] * pz[:, None, :]).reshape(n, -1)
+        dphi = (px[:, :, None] * dpz[:, None, :]).reshape(n, -1)
+        phi_w, dphi_w = _particle_weights(data)
+        out[:, _PHI_SUMS] = _deposit(flat, phi, size, phi_w)
+        out[:, _DPHI_SUMS] = _deposit(flat, dphi, size, dphi_w)
 
     def contact_part(sl: slice) -> None:
-        r1, branch, f = data.r1[sl], data.branch[sl], data.force[sl]
+        r1, branch = data.r1[sl], data.branch[sl]
         x1, z1 = r1[:, 0], r1[:, 2]
         x2, z2 = x1 - branch[:, 0], z1 - branch[:, 2]  # x2 unwrapped next to x1
         spanx = float(np.max(np.abs(branch[:, 0]))) + 2 * c
         spanz = float(np.max(np.abs(branch[:, 2]))) + 2 * c
         ix, _ = _window(np.minimum(x1, x2) - c, spanx, x0, dx, 10**18)
-        if spanx >= lx:
-            raise CoarseGrainError(f"kernel support plus branch ({spanx:.3g} m) exceeds the periodic length {lx:.3g} m")
+        if spanx >= lx.min():
+            raise CoarseGrainError(f"kernel support plus branch ({spanx:.3g} m) exceeds the periodic length "
+                                   f"{lx.min():.3g} m")
         iz, okz = _window(np.minimum(z1, z2) - c, spanz, z0, dz, nz)
         xk = (x0 + ix * dx)[:, :, None]
         zk = (z0 + iz * dz)[:, None, :]
         shape = (len(ix), ix.shape[1], iz.shape[1])
-        weight = segment_2d(kernel, np.broadcast_to(xk - x1[:, None, None], shape),
-                            np.broadcast_to(zk - z1[:, None, None], shape),
-                            np.broadcast_to(xk - x2[:, None, None], shape),
-                            np.broadcast_to(zk - z2[:, None, None], shape))
-        weight = np.where(okz[:, None, :], weight, 0.0).reshape(len(ix), -1)
-        flat = np.where(okz[:, None, :], (ix % nx)[:, :, None] * nz + iz[:, None, :], nx * nz).reshape(len(ix), -1)
-        for name, a, b in (("c_xx", 0, 0), ("c_yy", 1, 1), ("c_zz", 2, 2), ("c_xz", 0, 2), ("c_zx", 2, 0)):
-            out[SUMS.index(name)] += _bincount(flat.ravel(), (weight * (f[:, a] * branch[:, b])[:, None]).ravel(),
-                                               nx * nz + 1)
+        # Only the on-grid z rows are evaluated (the others would be discarded).
+        okb = np.broadcast_to(okz[:, None, :], shape)
+        weight = np.zeros(shape)
+        weight[okb] = segment_2d(kernel, np.broadcast_to(xk - x1[:, None, None], shape)[okb],
+                                 np.broadcast_to(zk - z1[:, None, None], shape)[okb],
+                                 np.broadcast_to(xk - x2[:, None, None], shape)[okb],
+                                 np.broadcast_to(zk - z2[:, None, None], shape)[okb])
+        weight = weight.reshape(len(ix), -1)
+        flat = np.where(okb, (ix % nx)[:, :, None] * nz + iz[:, None, :] + (csid[sl] * cells)[:, None, None],
+                        nsnap * cells).reshape(len(ix), -1)
+        out[:, _CONTACT_SUMS] += _deposit(flat, weight, size, _contact_weights(data, sl))
 
-    if data.mass.size:
-        particle_part()
-    # Chunks bound the (contacts x window) temporaries to a few tens of MB.
-    for start in range(0, data.force.shape[0], 5000):
-        contact_part(slice(start, start + 5000))
-    return out[:, :nx * nz].reshape(len(SUMS), nx, nz) / ly
+    if data.force.shape[0]:
+        # Chunks of about 4 CHUNK window entries keep the many temporaries of segment_2d in cache.
+        wx = int(math.floor((float(np.max(np.abs(data.branch[:, 0]))) + 2 * c) / dx)) + 2
+        wz = int(math.floor((float(np.max(np.abs(data.branch[:, 2]))) + 2 * c) / dz)) + 2
+        for sl in _chunks(data.force.shape[0], wx * wz, 4 * CHUNK):
+            contact_part(sl)
+    out = out[:-1].reshape(nsnap, cells, len(SUMS)).transpose(0, 2, 1).reshape(nsnap, len(SUMS), nx, nz)
+    if data.areas is None:
+        return out[0] / ly[0]
+    return out / ly[:, None, None, None]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -385,15 +503,19 @@ def block_average(stack: np.ndarray, blocks: int, d: float, rho_s: float) -> tup
 
     Returns (fields, errors, blocks used). With fewer than 2 snapshots the errors are NaN."""
     n = stack.shape[0]
-    fields = derive(stack.mean(axis=0), d, rho_s)
     used = min(blocks, n)
     if used < 2:
+        fields = derive(stack.mean(axis=0), d, rho_s)
         return fields, {k: np.full_like(v, np.nan) for k, v in fields.items()}, used
+    # The overall mean and the block means in one (elementwise) derive: SUMS on the first axis,
+    # then [overall, block 1, ..., block B].
     parts = np.array_split(np.arange(n), used)
-    per_block = [derive(stack[idx].mean(axis=0), d, rho_s) for idx in parts]
+    means = np.stack([stack.mean(axis=0)] + [stack[idx].mean(axis=0) for idx in parts], axis=1)
+    everything = derive(means, d, rho_s)
+    fields = {k: v[0] for k, v in everything.items()}
     errors = {}
     for name in fields:
-        values = np.stack([b[name] for b in per_block])
+        values = everything[name][1:]
         finite = np.all(np.isfinite(values), axis=0)
         safe = np.where(finite, values, 0.0)
         errors[name] = np.where(finite, safe.std(axis=0, ddof=1) / math.sqrt(used), np.nan)
@@ -428,16 +550,16 @@ def coarse_grain(particles: Dump, contacts: Dump | None, kernel: Kernel, grid: G
     if rho_s is None:
         rho_s = float(np.mean(particles.column("mass") / (4.0 / 3.0 * math.pi * radius**3)))
     plane = grid.x is not None
-    if plane:
-        sums = np.stack([plane_sums(snapshot(particles, contacts, int(s), body_types), kernel, grid) for s in chosen])
-    else:
-        # Snapshots in batches of about BATCH_ROWS particle rows: one vectorised pass each.
-        parts, rows = [], np.cumsum(particles.counts[chosen])
-        groups = np.split(chosen, np.searchsorted(rows, np.arange(BATCH_ROWS, rows[-1], BATCH_ROWS)))
-        for group in groups:
-            if group.size:
-                parts.append(profile_sums(batch(particles, contacts, group, body_types), kernel, grid))
-        sums = np.concatenate(parts)
+    # Snapshots in batches of about BATCH_ROWS particle rows (x-z: 16 times fewer, each row has a
+    # 2D window): one vectorised pass each.
+    limit = BATCH_ROWS // 16 if plane else BATCH_ROWS
+    sums_of = plane_sums if plane else profile_sums
+    parts, rows = [], np.cumsum(particles.counts[chosen])
+    groups = np.split(chosen, np.searchsorted(rows, np.arange(limit, rows[-1], limit)))
+    for group in groups:
+        if group.size:
+            parts.append(sums_of(batch(particles, contacts, group, body_types), kernel, grid))
+    sums = np.concatenate(parts)
     fields, errors, used = block_average(sums, blocks, d, rho_s)
     dims = ("x", "z") if plane else ("z",)
     coords = {"z": ("z", grid.z, {"units": "m", "long_name": "height (gradient direction, up)"})}

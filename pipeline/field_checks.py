@@ -37,20 +37,20 @@ def _cumulative(values: np.ndarray, z: np.ndarray) -> np.ndarray:
 
 def momentum_balance(ds: xr.Dataset, gravity: float, z_lo: float, z_hi: float) -> dict[str, float]:
     """Bulk momentum-balance residuals of a z profile between ``z_lo`` and ``z_hi`` (m)."""
-    z = ds["z"].values
+    z = ds.variables["z"].values
     bulk = (z >= z_lo) & (z <= z_hi)
     if bulk.sum() < 3:
         raise ValueError(f"bulk [{z_lo:.4g}, {z_hi:.4g}] m holds fewer than 3 grid points")
     zb = z[bulk]
-    p = float(np.mean(ds["p"].values[bulk]))
-    sxz = ds["sigma_xz"].values[bulk]
-    szz = ds["sigma_zz"].values[bulk]
-    rho = ds["rho_body"].values[bulk]
+    p = float(np.mean(ds.variables["p"].values[bulk]))
+    sxz = ds.variables["sigma_xz"].values[bulk]
+    szz = ds.variables["sigma_zz"].values[bulk]
+    rho = ds.variables["rho_body"].values[bulk]
     s = szz + gravity * _cumulative(rho, zb)
     slope = float(np.polyfit(zb, szz, 1)[0])
     expected = float(-gravity * np.mean(rho))
-    xz_err = float(np.mean(ds["sigma_xz_err"].values[bulk]))
-    zz_err = float(np.mean(ds["sigma_zz_err"].values[bulk]))
+    xz_err = float(np.mean(ds.variables["sigma_xz_err"].values[bulk]))
+    zz_err = float(np.mean(ds.variables["sigma_zz_err"].values[bulk]))
     return {
         "p_bulk": p,
         "residual_xz": float(np.max(np.abs(sxz - sxz.mean())) / p),
@@ -118,8 +118,10 @@ def contact_wall_forces(particles: Dump, contacts: Dump, snapshots: np.ndarray) 
 
 def stress_at(ds: xr.Dataset, name: str, z: float) -> tuple[float, float]:
     """Linear interpolation of a profile and of its error at height z."""
-    zz = ds["z"].values
-    return float(np.interp(z, zz, ds[name].values)), float(np.interp(z, zz, ds[f"{name}_err"].values))
+    zz = ds.variables["z"].values
+    # ds.variables: the arrays without building a DataArray per access (40 us each).
+    values, errors = ds.variables[name].values, ds.variables[f"{name}_err"].values
+    return float(np.interp(z, zz, values)), float(np.interp(z, zz, errors))
 
 
 def wall_stress(ds: xr.Dataset, kernel: Kernel, walls: WallGeometry, area: float, gravity: float,
@@ -185,9 +187,12 @@ def contact_stress_identity(particles: Dump, contacts: Dump, snapshots: np.ndarr
     flow = rows[:, particles.index("type")].astype(int) == 1
     applied = np.where(flow[:, None], applied, fc)  # wall grains: their contact force either way
     nsnap = len(snapshots)
+    far = 2.0 * float(np.ptp(data.pos[:, 2])) + 4.0 * kernel.cutoff
     for wall, z_e in (("bottom", walls.bottom_max + kernel.cutoff), ("top", walls.top_min - kernel.cutoff)):
         weight = kernel.cdf(z_e - data.pos[:, 2])
-        sums = profile_sums(data, kernel, Grid(np.array([z_e, z_e + kernel.width])))
+        # Contact sums only, at z_e: the grid's first point. The second lies beyond every grain, so
+        # only the contacts near z_e are evaluated.
+        sums = profile_sums(data, kernel, Grid(np.array([z_e, z_e + far])), particles=False)
         got = {name: sums[:, SUMS.index(f"c_{name}"), 0] for name in ("xz", "zz")}
         for label, forces in (("exact", fc), ("applied", applied)):
             expected = np.stack([np.bincount(psid, forces[:, a] * weight, nsnap) for a in range(3)], axis=1)
