@@ -19,7 +19,6 @@ ENV = "envs/granular-validate.yaml"
 # Rules run `python` from the environment Snakemake itself runs in (the project's .venv).
 shell.prefix(targets.python_path_prefix())
 CONFIG_JSON = targets.effective_config_file(config)
-CONFIG_DEM_JSON = targets.effective_config_file(config, dem_only=True)
 
 
 wildcard_constraints:
@@ -30,6 +29,14 @@ wildcard_constraints:
 
 def case_fields(wildcards):
     return targets.case_fields(wildcards, config)
+
+
+def intruder_runs(wildcards):
+    return targets.intruder_run_jsons(wildcards, config)
+
+
+def dem_case_config(wildcards):
+    return targets.effective_config_file(config, dem_case=wildcards.case)
 
 
 rule all:
@@ -44,7 +51,7 @@ rule dem:
     conda:
         ENV
     input:
-        CONFIG_DEM_JSON,
+        dem_case_config,
     output:
         f"{ROOT}/dem/{{case}}/{{run}}/run.json",
     log:
@@ -137,6 +144,8 @@ rule model:
         fields=case_fields,
     output:
         f"{ROOT}/models/{{case}}/{{model}}.nc",
+    wildcard_constraints:
+        case="|".join(targets.scored_cases(config)) or "no_planar_case",
     log:
         f"{ROOT}/logs/models/{{case}}/{{model}}.log",
     benchmark:
@@ -144,6 +153,30 @@ rule model:
     shell:
         "python -m pipeline.solve_models --config {input.config} --params {input.params} "
         "--case {wildcards.case} --model {wildcards.model} --fields {input.fields} --out {output} > {log} 2>&1"
+
+
+rule intruder_model:
+    message:
+        "Model {wildcards.model}: intruder speed at the DEM depths of {wildcards.case}"
+    conda:
+        ENV
+    input:
+        config=CONFIG_JSON,
+        params=f"{ROOT}/calibration/params.json",
+        runs=intruder_runs,
+        fields=case_fields,
+    output:
+        f"{ROOT}/models/{{case}}/{{model}}.nc",
+    wildcard_constraints:
+        case="|".join(targets.intruder_cases(config)) or "no_intruder_case",
+        model="|".join(targets.INTRUDER_MODELS),
+    log:
+        f"{ROOT}/logs/models/{{case}}/{{model}}.log",
+    benchmark:
+        f"{ROOT}/benchmarks/models/{{case}}/{{model}}.tsv"
+    shell:
+        "python -m pipeline.intruder_models --config {input.config} --params {input.params} "
+        "--model {wildcards.model} --runs {input.runs} --fields {input.fields} --out {output} > {log} 2>&1"
 
 
 # --------------------------------------------------------------------------------- scores
@@ -155,6 +188,8 @@ rule scores:
     input:
         fields=[f for case in targets.scored_cases(config) for f in targets.fields_paths(config, case)],
         models=targets.model_paths(config),
+        intruder_runs=targets.all_intruder_run_jsons(config),
+        intruder_models=targets.intruder_model_paths(config),
     output:
         f"{ROOT}/scores.csv",
     log:
@@ -162,7 +197,29 @@ rule scores:
     benchmark:
         f"{ROOT}/benchmarks/scores.tsv"
     shell:
-        "python -m pipeline.scores --fields {input.fields} --models {input.models} --out {output} > {log} 2>&1"
+        "python -m pipeline.scores --fields {input.fields} --models {input.models} "
+        "--intruder-runs {input.intruder_runs} --intruder-models {input.intruder_models} --out {output} > {log} 2>&1"
+
+
+rule cost_accuracy:
+    message:
+        "Accuracy against cost: each model over a sweep of grid resolution"
+    conda:
+        ENV
+    input:
+        params=f"{ROOT}/calibration/params.json",
+        fields=[f for case in targets.scored_cases(config) for f in targets.fields_paths(config, case)],
+    output:
+        f"{ROOT}/cost_accuracy.csv",
+    params:
+        models=targets.model_names(config),
+    log:
+        f"{ROOT}/logs/cost_accuracy.log",
+    benchmark:
+        f"{ROOT}/benchmarks/cost_accuracy.tsv"
+    shell:
+        "python -m pipeline.cost_accuracy --params {input.params} --fields {input.fields} "
+        "--models {params.models} --out {output} > {log} 2>&1"
 
 
 # ------------------------------------------------------------------------------ stability
@@ -236,13 +293,15 @@ rule report:
         models=targets.model_paths(config),
         well_posedness=f"{ROOT}/stability/well_posedness.csv",
         scores=f"{ROOT}/scores.csv",
+        cost=f"{ROOT}/cost_accuracy.csv",
+        intruder_models=targets.intruder_model_paths(config),
         mesh=f"{ROOT}/stability/mesh_convergence.csv",
         failures=f"{ROOT}/stability/failure_catalogue.csv",
     output:
         html=f"{ROOT}/report.html",
         figures=[
             report(f"{ROOT}/figures/{name}.png", category="granular-validate")
-            for name in targets.REPORT_FIGURES
+            for name in targets.report_figures(config)
         ],
     log:
         f"{ROOT}/logs/report.log",

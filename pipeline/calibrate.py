@@ -177,11 +177,51 @@ def calibrate_nonlocal(params: dict[str, Any], path: Path, settings: dict[str, A
     d = geometry.d
     for model, build in (("cosserat", cosserat_parameters), ("volume_averaged", volume_averaged_parameters)):
         start = build(base, l=d, settings=settings)
-        fit = fits.fit_nonlocal_length(model, geometry, lambda l, s=start: replace(s, l=l), z, u, err,
-                                       initial=d, bounds=(0.01 * d, 50.0 * d), name="l", case=where)
-        out[model] = {"l": _entry(fit.values["l"], fit.errors["l"], where)}
+        make = lambda l, s=start: replace(s, l=l)  # noqa: E731
+        lo, hi = admissible_interval(model, geometry, make, 0.05 * d, 20.0 * d)
+        fit = fits.fit_nonlocal_length(model, geometry, make, z, u, err, initial=math.sqrt(lo * hi),
+                                       bounds=(lo, hi), name="l", case=where)
+        note = ""
+        if lo > 0.05 * d or hi < 20.0 * d:
+            note = f"the model solves on this geometry only for l in [{lo / d:.3g}, {hi / d:.3g}] d; fitted there"
+        if fit.values["l"] > 0.99 * hi or fit.values["l"] < 1.01 * lo:
+            note += "; the fit sits at a bound of that interval"
+        out[model] = {"l": _entry(fit.values["l"], fit.errors["l"], where, note.strip("; "))}
     ds.close()
     return out
+
+
+def admissible_interval(model: str, geometry: PlanarShear, make_params: Any, lo: float, hi: float,
+                        n_grid: int = 400, samples: int = 25) -> tuple[float, float]:
+    """The widest interval of lengths in [lo, hi] (log-spaced samples) where the model solves.
+
+    The Cosserat model has solutions only in a window of l for a given wall-spin condition: below
+    it the couple-stress wall conditions are not met on the grid, above it the shear stress it
+    needs exceeds what the top wall admits. Fitting must stay inside that window.
+    """
+    import continuum
+
+    lengths = np.geomspace(lo, hi, samples)
+    ok = []
+    for length in lengths:
+        try:
+            continuum.solve(model, geometry, make_params(float(length)), n_grid=n_grid)
+            ok.append(True)
+        except continuum.ContinuumError:
+            ok.append(False)
+    best: tuple[int, int] | None = None
+    start = None
+    for k, good in enumerate([*ok, False]):
+        if good and start is None:
+            start = k
+        if not good and start is not None:
+            if best is None or k - start > best[1] - best[0]:
+                best = (start, k)
+            start = None
+    if best is None:
+        raise CalibrationError(f"model {model} has no solution on the calibration geometry for any l in "
+                               f"[{lo:.3g}, {hi:.3g}] m")
+    return float(lengths[best[0]]), float(lengths[best[1] - 1])
 
 
 # ------------------------------------------------------------------- parameter dataclasses

@@ -150,6 +150,12 @@ def liggghts_seed(master_seed: int, *labels: str) -> int:
 NON_DEM_SECTIONS = ("coarse_grain", "calibration", "models")
 
 
-def dem_config(config: dict[str, Any]) -> dict[str, Any]:
-    """The part of a config a DEM run depends on (still a valid config on its own)."""
-    return {key: value for key, value in config.items() if key not in NON_DEM_SECTIONS}
+def dem_config(config: dict[str, Any], case: str | None = None) -> dict[str, Any]:
+    """The part of a config a DEM run depends on (still a valid config on its own).
+
+    With ``case``, only that case is kept: adding or changing another case does not touch it.
+    """
+    out = {key: value for key, value in config.items() if key not in NON_DEM_SECTIONS}
+    if case is not None:
+        out["cases"] = {case: config["cases"][case]}
+    return out

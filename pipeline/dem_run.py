@@ -187,7 +187,7 @@ class PlanarShearRun:
     def _load_state(self) -> None:
         # Only what changes the physics: MPI layout and non-DEM sections may differ on resume.
         dem = {k: v for k, v in self.config["dem"].items() if k not in ("mpi_ranks", "mpi_launcher", "liggghts")}
-        physics = dem_config(self.config) | {"dem": dem}
+        physics = dem_config(self.config, self.case_name) | {"dem": dem}
         fingerprint = {"config": physics, "case": self.case_name, "run": self.run_id}
         if self.state_path.exists():
             state = json.loads(self.state_path.read_text())

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import itertools
+import json
 import math
 from pathlib import Path
 from typing import Callable
@@ -127,13 +128,57 @@ def score_case(case: str, field_files: list[Path], model_files: dict[str, Path])
     return pd.DataFrame(rows, columns=COLUMNS)
 
 
+def score_intruder(runs: list[dict], model_files: dict[str, Path]) -> pd.DataFrame:
+    """``intruder_speed_log_err``: RMS of log10(U_model / U_dem) over the depths where the DEM rod
+    moves (not arrested) and the model gives a speed; inf where the model predicts no motion.
+
+    DEM speeds at one depth are averaged over replicas; ``dem_noise`` is the same metric between
+    two replicas at the same depth (nan with one replica).
+    """
+    sheared = [r for r in runs if not r["intruder"]["control"]]
+    by_depth: dict[float, list[float]] = {}
+    for r in sheared:
+        if not r["intruder"]["arrested"]:
+            by_depth.setdefault(round(r["intruder"]["depth_target_over_d"], 6), []).append(r["intruder"]["speed"])
+    if not by_depth:
+        raise MetricError("no intruder run moves: nothing to score")
+    actual = {}
+    for r in sheared:
+        actual.setdefault(round(r["intruder"]["depth_target_over_d"], 6), []).append(r["intruder"]["depth_over_d"])
+    noise_terms = [abs(math.log10(a / b)) for v in by_depth.values() for a, b in itertools.combinations(v, 2) if a > 0 and b > 0]
+    noise = float(np.sqrt(np.mean(np.square(noise_terms)))) if noise_terms else float("nan")
+    rows = []
+    for model, path in sorted(model_files.items()):
+        sol = xr.open_dataset(path)
+        errors = []
+        for target, speeds in by_depth.items():
+            depth = float(np.mean(actual[target]))
+            match = np.nonzero(np.isclose(sol.depth_over_d.values, depth, atol=0.5))[0]
+            if match.size == 0:
+                continue  # the model refused this depth (listed in its file)
+            u = float(sol.speed.values[match[0]])
+            errors.append(math.inf if u <= 0.0 else math.log10(u / float(np.mean(speeds))))
+        if errors:
+            value = math.inf if any(math.isinf(e) for e in errors) else float(np.sqrt(np.mean(np.square(errors))))
+            rows.append({"case": "intruder", "model": model, "metric": "intruder_speed_log_err", "value": value,
+                         "dem_noise": noise, "n_grid": int(sol.attrs["n_grid"]),
+                         "solve_seconds": float(sol.attrs["solve_seconds"])})
+        sol.close()
+    return pd.DataFrame(rows, columns=COLUMNS)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description="Score the continuum models against the DEM fields.")
     parser.add_argument("--fields", nargs="+", required=True, type=Path, help="fields/CASE/RUN.nc files")
     parser.add_argument("--models", nargs="+", required=True, type=Path, help="models/CASE/MODEL.nc files")
+    parser.add_argument("--intruder-runs", nargs="*", default=[], type=Path, help="run.json of the intruder runs")
+    parser.add_argument("--intruder-models", nargs="*", default=[], type=Path, help="models/intruder/MODEL.nc files")
     parser.add_argument("--out", required=True, type=Path)
     args = parser.parse_args(argv)
     frames = []
+    if args.intruder_models:
+        runs = [json.loads(p.read_text()) for p in args.intruder_runs]
+        frames.append(score_intruder(runs, {p.stem: p for p in args.intruder_models}))
     for case in sorted({p.parent.name for p in args.models}):
         field_files = sorted(p for p in args.fields if p.parent.name == case)
         model_files = {p.stem: p for p in args.models if p.parent.name == case}

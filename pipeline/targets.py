@@ -28,6 +28,11 @@ def run_json_paths(config: dict[str, Any]) -> list[str]:
     return [str(root(config) / "dem" / case / run / "run.json") for case, run in dem_runs(config)]
 
 
+def report_figures(config: dict[str, Any]) -> list[str]:
+    """Names of the figures the report writes for this config."""
+    return list(REPORT_FIGURES) + (["intruder"] if intruder_cases(config) else [])
+
+
 def fields_paths(config: dict[str, Any], case: str | None = None) -> list[str]:
     """``fields/{case}/{run}.nc`` of every DEM run (of one case if given)."""
     return [
@@ -45,15 +50,17 @@ def mpi_ranks(config: dict[str, Any]) -> int:
     return int(config["dem"]["mpi_ranks"])
 
 
-def effective_config_file(config: dict[str, Any], dem_only: bool = False) -> str:
+def effective_config_file(config: dict[str, Any], dem_case: str | None = None) -> str:
     """Write the validated config (with any ``--config`` overrides) where the rules read it.
 
     The file is rewritten only when its content changes, so an unchanged config does not make
-    Snakemake rerun anything. With ``dem_only`` it holds only what DEM runs depend on
-    (``config.dem.json``), so that changing a model setting does not rerun the DEM. Returns its path.
+    Snakemake rerun anything. With ``dem_case`` it holds only what that case's DEM runs depend on
+    (``config.dem.<case>.json``), so changing a model setting or another case does not rerun
+    them. Returns its path.
     """
-    path = root(config) / ("config.dem.json" if dem_only else "config.effective.json")
-    text = json.dumps(dem_config(config) if dem_only else config, indent=1, sort_keys=True)
+    name = f"config.dem.{dem_case}.json" if dem_case else "config.effective.json"
+    path = root(config) / name
+    text = json.dumps(dem_config(config, dem_case) if dem_case else config, indent=1, sort_keys=True)
     if not path.exists() or path.read_text() != text:
         path.parent.mkdir(parents=True, exist_ok=True)
         tmp = path.with_name(path.name + ".tmp")
@@ -69,12 +76,12 @@ def model_names(config: dict[str, Any]) -> list[str]:
 
 
 def scored_cases(config: dict[str, Any]) -> list[str]:
-    """Cases the continuum models are solved on and scored against (all but the rheometer)."""
-    return [case for case in config["cases"] if case != "rheometer"]
+    """Planar cases the 1D continuum models are solved on and scored against (not the rheometer)."""
+    return [case for case, spec in config["cases"].items() if case != "rheometer" and spec["geometry"] == "planar_shear"]
 
 
 def model_paths(config: dict[str, Any]) -> list[str]:
-    """``models/{case}/{model}.nc`` for every scored case and model."""
+    """``models/{case}/{model}.nc`` for every scored planar case and model."""
     return [str(root(config) / "models" / case / f"{model}.nc") for case in scored_cases(config) for model in model_names(config)]
 
 
@@ -112,3 +119,28 @@ def figure_folder(wildcards: Any, output: Any) -> str:
 def python_path_prefix() -> str:
     """Shell prefix putting the running interpreter's folder first on PATH (rules call ``python``)."""
     return f"export PATH={shlex.quote(str(Path(sys.executable).parent))}:$PATH; "
+
+
+def intruder_cases(config: dict[str, Any]) -> list[str]:
+    """Cases with an intruder (scored by the intruder's speed)."""
+    return [case for case, spec in config["cases"].items() if spec["geometry"] == "intruder"]
+
+
+#: Models that predict an intruder speed (continuum.intruder); Cosserat is not solved in 2D.
+INTRUDER_MODELS = ("ngf", "local_mu_i", "critical_state", "volume_averaged")
+
+
+def intruder_model_paths(config: dict[str, Any]) -> list[str]:
+    """``models/{case}/{model}.nc`` of the intruder cases."""
+    return [str(root(config) / "models" / case / f"{model}.nc") for case in intruder_cases(config)
+            for model in model_names(config) if model in INTRUDER_MODELS]
+
+
+def intruder_run_jsons(wildcards: Any, config: dict[str, Any]) -> list[str]:
+    """run.json of every run of the intruder case named by the wildcards."""
+    return [str(root(config) / "dem" / c / r / "run.json") for c, r in dem_runs(config) if c == wildcards.case]
+
+
+def all_intruder_run_jsons(config: dict[str, Any]) -> list[str]:
+    """run.json of every run of every intruder case."""
+    return [str(root(config) / "dem" / c / r / "run.json") for c, r in dem_runs(config) if c in intruder_cases(config)]

@@ -1,11 +1,11 @@
 """Intruder runs: the rod's speed estimate (synthetic) and two real reduced LIGGGHTS runs.
 
-The LIGGGHTS tests run the shallowest reduced intruder run with the top wall moving and its
-control with the wall at rest, once each (module-scoped), from config/ci.yaml.
+The LIGGGHTS tests read the shallowest intruder run with the top wall moving and its control with
+the wall at rest from the reduced workflow the session runs once (tests/conftest.py).
 """
 from __future__ import annotations
 
-import shutil
+import json
 from pathlib import Path
 from typing import Any
 
@@ -14,7 +14,7 @@ import pytest
 
 from pipeline.config import dem_runs, intruder_run, load_config
 from pipeline.dumps import read_particles
-from pipeline.intruder_run import ARREST_DISPLACEMENT_OVER_D, IntruderRun, creep_speed, unwrap
+from pipeline.intruder_run import ARREST_DISPLACEMENT_OVER_D, creep_speed, unwrap
 
 REPO = Path(__file__).resolve().parents[2]
 D = 0.002
@@ -57,28 +57,27 @@ def test_configs_enumerate_depths_and_a_control(name: str) -> None:
 
 
 # ------------------------------------------------------------------------------ real LIGGGHTS
-def _run(tmp_path_factory: pytest.TempPathFactory, control: bool) -> dict[str, Any]:
-    if shutil.which("liggghts") is None:
-        pytest.fail("LIGGGHTS is not installed: run scripts/install.sh")
-    config = load_config(REPO / "config/ci.yaml")
+def _run(root: Path, control: bool) -> dict[str, Any]:
+    """run.json record of the reduced workflow's shallowest intruder run (one LIGGGHTS run each)."""
+    config = load_config(root / "config.effective.json")
     depth = min(config["cases"]["intruder"]["depths_below_top"])
     run_id = f"D{depth:g}-control-r1" if control else f"D{depth:g}-r1"
-    out = tmp_path_factory.mktemp(run_id)
-    record = IntruderRun(config, "intruder", run_id, out).run()
+    out = root / "dem" / "intruder" / run_id
+    record = json.loads((out / "run.json").read_text())
     record["_dir"] = out
     return record
 
 
 @pytest.fixture(scope="module")
-def sheared(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
+def sheared(reduced_results: Path) -> dict[str, Any]:
     """run.json record of the shallowest reduced intruder run (top wall moving)."""
-    return _run(tmp_path_factory, control=False)
+    return _run(reduced_results, control=False)
 
 
 @pytest.fixture(scope="module")
-def control(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
+def control(reduced_results: Path) -> dict[str, Any]:
     """run.json record of its control (top wall at rest, same packing and push)."""
-    return _run(tmp_path_factory, control=True)
+    return _run(reduced_results, control=True)
 
 
 @pytest.mark.liggghts
