@@ -317,8 +317,8 @@ def reference_plane_sums(data, kernel, grid):
 def random_batch(rng, nsnap, n, m):
     """A batch of ``nsnap`` random snapshots of ``n`` grains and ``m`` contacts each, in a periodic
     10 x 8 mm cell, grains also below and above the grid; contacts include ones across the periodic
-    faces, a horizontal one (branch z = 0, the short-branch path of the profile weight) and a
-    vertical one (branch x = 0)."""
+    faces, a horizontal one (branch z = 0, the short-branch path of the profile weight), nearly
+    horizontal ones on both sides of ``cg.FLAT_BRANCH`` and a vertical one (branch x = 0)."""
     lengths = np.array([[0.01, 0.008, 0.03]] * nsnap)
     pos = rng.uniform([0, 0, -0.002], [0.01, 0.008, 0.032], (nsnap * n, 3))
     r1 = rng.uniform([0, 0, 0.0], [0.01, 0.008, 0.03], (nsnap * m, 3))
@@ -326,6 +326,7 @@ def random_batch(rng, nsnap, n, m):
     branch *= rng.uniform(0.5e-3, 2.4e-3, (nsnap * m, 1)) / np.linalg.norm(branch, axis=1, keepdims=True)
     branch[0, 2] = 0.0
     branch[1, 0] = 0.0
+    branch[3, 2], branch[4, 2], branch[5, 2] = 5e-6, 2e-5, -3e-9  # nearly horizontal: 0.005 w, 0.02 w, 3e-6 w
     r1[2, 0] = 0.0003  # close to the x face: r2 lies across it
     return cg.SnapshotData(
         pos=pos, vel=rng.normal(size=(nsnap * n, 3)), mass=rng.uniform(1e-6, 2e-6, nsnap * n),
