@@ -13,6 +13,7 @@ error path, not physics (the real failures are in test_failure_catalogue.py).
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 from collections.abc import Callable
@@ -349,7 +350,7 @@ def fake_liggghts(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Callable[[
         path.write_text(script)
         path.chmod(0o755)
 
-    monkeypatch.setenv("PATH", f"{folder}:{__import__('os').environ['PATH']}")
+    monkeypatch.setenv("PATH", f"{folder}:{os.environ['PATH']}")
     return install
 
 
