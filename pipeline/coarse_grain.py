@@ -523,8 +523,13 @@ def plane_sums(data: SnapshotData, kernel: Kernel, grid: Grid) -> np.ndarray:
         xk = (x0 + ix * dx)[:, :, None]
         zk = (z0 + iz * dz)[:, None, :]
         shape = (len(ix), ix.shape[1], iz.shape[1])
-        # Only the on-grid z rows are evaluated (the others would be discarded).
-        okb = np.broadcast_to(okz[:, None, :], shape)
+        # Only on-grid points within c (in x and in z) of the branch's extent are evaluated: at
+        # the others the path misses the support and the weight is exactly 0 (the windows are
+        # sized for the chunk's longest branch). The slack of 1e-9 c only guards rounding.
+        reach = c * (1.0 + 1e-9)
+        near_x = (xk[:, :, 0] > np.minimum(x1, x2)[:, None] - reach) & (xk[:, :, 0] < np.maximum(x1, x2)[:, None] + reach)
+        near_z = okz & (zk[:, 0, :] > np.minimum(z1, z2)[:, None] - reach) & (zk[:, 0, :] < np.maximum(z1, z2)[:, None] + reach)
+        okb = near_x[:, :, None] & near_z[:, None, :]
         weight = np.zeros(shape)
         weight[okb] = segment_2d(kernel, np.broadcast_to(xk - x1[:, None, None], shape)[okb],
                                  np.broadcast_to(zk - z1[:, None, None], shape)[okb],

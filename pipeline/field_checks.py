@@ -179,9 +179,10 @@ def contact_stress_identity(particles: Dump, contacts: Dump, snapshots: np.ndarr
     stride = ids.max() + 1
     i1 = order[np.searchsorted(key[order], csid * stride + crow[:, contacts.index("id1")].astype(np.int64))]
     i2 = order[np.searchsorted(key[order], csid * stride + crow[:, contacts.index("id2")].astype(np.int64))]
-    fc = np.zeros((ids.size, 3))
-    np.add.at(fc, i1, data.force)
-    np.add.at(fc, i2, -data.force)
+    # fc[i1] += f then fc[i2] -= f, accumulated in the same order as np.add.at (a 2D add.at is slow).
+    both = np.concatenate([i1, i2])
+    fc = np.stack([np.bincount(both, np.concatenate([data.force[:, a], -data.force[:, a]]), ids.size)
+                   for a in range(3)], axis=1)
     applied = rows[:, [particles.index("fx"), particles.index("fy"), particles.index("fz")]] \
         - data.mass[:, None] * np.array([0.0, 0.0, -gravity])
     flow = rows[:, particles.index("type")].astype(int) == 1
