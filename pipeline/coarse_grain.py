@@ -187,14 +187,25 @@ def _rows(dump: Dump, snaps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return rows, np.repeat(np.arange(snaps.size), counts)
 
 
+def _columns(rows: np.ndarray, columns: Sequence[str], names: Sequence[str]) -> np.ndarray:
+    """The named columns of ``rows``: a read-only view when they are adjacent and in order (no copy),
+    else a copy."""
+    idx = [columns.index(n) for n in names]
+    if idx == list(range(idx[0], idx[0] + len(idx))):
+        view = rows[:, idx[0]:idx[0] + len(idx)]
+        view.flags.writeable = False
+        return view
+    return rows[:, idx]
+
+
 def batch(particles: Dump, contacts: Dump | None, chosen: np.ndarray,
           body_types: Sequence[int] | None = (1,)) -> SnapshotData:
     """Arrays of several particle snapshots (and their contacts) for one vectorised pass."""
     chosen = np.asarray(chosen, dtype=np.int64)
     rows, psid = _rows(particles, chosen)
     cols = particles.columns
-    pos = rows[:, [cols.index("x"), cols.index("y"), cols.index("z")]]
-    vel = rows[:, [cols.index("vx"), cols.index("vy"), cols.index("vz")]]
+    pos = _columns(rows, cols, ("x", "y", "z"))
+    vel = _columns(rows, cols, ("vx", "vy", "vz"))
     mass = rows[:, cols.index("mass")]
     radius = rows[:, cols.index("radius")]
     if body_types is not None and "type" in cols:
@@ -207,9 +218,9 @@ def batch(particles: Dump, contacts: Dump | None, chosen: np.ndarray,
     if contacts is not None:
         crow, csid = _rows(contacts, _contact_index(particles, contacts, chosen))
         cc = contacts.columns
-        r1 = crow[:, [cc.index("x1"), cc.index("y1"), cc.index("z1")]]
-        r2 = crow[:, [cc.index("x2"), cc.index("y2"), cc.index("z2")]]
-        force = crow[:, [cc.index("fx"), cc.index("fy"), cc.index("fz")]]
+        r1 = _columns(crow, cc, ("x1", "y1", "z1"))
+        r2 = _columns(crow, cc, ("x2", "y2", "z2"))
+        force = _columns(crow, cc, ("fx", "fy", "fz"))
         branch = r1 - r2
         for axis in range(3):
             if periodic[axis]:

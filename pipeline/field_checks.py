@@ -171,14 +171,14 @@ def contact_stress_identity(particles: Dump, contacts: Dump, snapshots: np.ndarr
     ids = rows[:, particles.index("id")].astype(np.int64)
     psid, csid = data.psid, data.csid
     assert psid is not None and csid is not None and data.areas is not None
-    # Row of (snapshot, id) in the batch: ids are unique within a snapshot.
-    key = psid * (ids.max() + 1) + ids
-    order = np.argsort(key)
+    # Row of (snapshot, id) in the batch: ids are unique within a snapshot (a dense lookup table).
+    stride = ids.max() + 1
+    where = np.empty(len(snapshots) * stride, np.int64)
+    where[psid * stride + ids] = np.arange(ids.size)
     crow = np.concatenate([contacts.rows(int(np.nonzero(contacts.timesteps == particles.timesteps[s])[0][0]))
                            for s in snapshots])
-    stride = ids.max() + 1
-    i1 = order[np.searchsorted(key[order], csid * stride + crow[:, contacts.index("id1")].astype(np.int64))]
-    i2 = order[np.searchsorted(key[order], csid * stride + crow[:, contacts.index("id2")].astype(np.int64))]
+    i1 = where[csid * stride + crow[:, contacts.index("id1")].astype(np.int64)]
+    i2 = where[csid * stride + crow[:, contacts.index("id2")].astype(np.int64)]
     # fc[i1] += f then fc[i2] -= f, accumulated in the same order as np.add.at (a 2D add.at is slow).
     both = np.concatenate([i1, i2])
     fc = np.stack([np.bincount(both, np.concatenate([data.force[:, a], -data.force[:, a]]), ids.size)
