@@ -404,10 +404,11 @@ def _contact_profile_sums(data: SnapshotData, kernel: Kernel, z0: float, dz: flo
     steep = np.nonzero(~flat_branch & hits)[0]
     if steep.size == 0:
         return out[:-1]
-    f, r = data.force[steep], data.branch[steep]
+    every = steep.size == bz.size
+    f, r = (data.force, data.branch) if every else (data.force[steep], data.branch[steep])
     # Contact ends (z2 with +f_a r_b / bz, z1 with -f_a r_b / bz) grouped by (snapshot, height).
-    ends = np.concatenate([z2[steep], z1[steep]])
-    sid = np.concatenate([csid[steep], csid[steep]])
+    ends = np.concatenate([z2, z1] if every else [z2[steep], z1[steep]])
+    sid = np.concatenate([csid, csid] if every else [csid[steep], csid[steep]])
     # Sorted by snapshot, then height. Only equal (snapshot, height) pairs must end up adjacent:
     # a rounded key that merely orders neighbours loosely at worst splits a group in two.
     order = np.argsort(ends + sid * (2.0 * float(np.ptp(ends)) + 1.0))

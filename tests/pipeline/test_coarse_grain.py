@@ -360,6 +360,10 @@ def test_optimised_profile_equals_the_dense_reference(kernel, rng):
             np.testing.assert_array_equal(contacts_only[:, k], cg.profile_sums(data, kernel, grid)[:, k])
         else:
             assert not contacts_only[:, k].any()
+    # Every contact steep and on the grid (the telescoped path alone, nothing pruned).
+    steep = cg.SnapshotData(**{**data.__dict__, "branch": data.branch.copy()})
+    steep.branch[:, 2] = np.where(data.branch[:, 2] < 0, -1.0, 1.0) * np.maximum(np.abs(data.branch[:, 2]), 5e-4)
+    assert_sums_equal(cg.profile_sums(steep, kernel, grid), reference_profile_sums(steep, kernel, grid))
     # A grid touching only part of the contacts (the pruned path), and one snapshot alone.
     narrow = cg.Grid(np.array([0.012, 0.0125]))
     assert_sums_equal(cg.profile_sums(data, kernel, narrow), reference_profile_sums(data, kernel, narrow))
