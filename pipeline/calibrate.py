@@ -49,6 +49,11 @@ CALIBRATION_DEFAULTS: dict[str, Any] = {
 }
 
 
+#: Slope d nu_cs / d ln p used when the DEM resolves none (rigid grains): the order of the
+#: relative grain compliance (mean overlap / d ~ 1e-3).
+KAPPA_FLOOR = 1e-3
+
+
 class CalibrationError(ValueError):
     """The fields cannot calibrate the models; the message names the file and the cause."""
 
@@ -131,11 +136,23 @@ def calibrate(config: dict[str, Any], rheometer_files: list[Path], nonlocal_file
     nu_fit = fits.fit_solid_fraction(arr["I"], arr["nu"], arr["nu_err"])
     cs_fit = fits.fit_critical_state(arr["I"], arr["mu"], arr["mu_err"], arr["p"], arr["nu"], arr["nu_err"])
     on_rheo = "rheometer"
+    cs_notes = {}
+    if not cs_fit.values["kappa"] > 0.0:
+        # Rigid grains: nu_cs hardly depends on p, and the fitted slope came out <= 0 within its
+        # error. The rate-independent models need p_c(nu) increasing, so kappa takes the floor
+        # (the grains' compliance scale) and the line passes through nu(I -> 0).
+        note = (f"fitted kappa {cs_fit.values['kappa']:.3g} +- {cs_fit.errors['kappa']:.2g} is not positive: "
+                f"the DEM resolves no pressure dependence of nu at the critical state; kappa set to {KAPPA_FLOOR:g}, "
+                "nu_ref to nu_c of the nu(I) fit")
+        cs_fit.values["kappa"], cs_fit.values["nu_ref"] = KAPPA_FLOOR, nu_fit.values["nu_c"]
+        cs_fit.errors["nu_ref"] = nu_fit.errors["nu_c"]
+        cs_notes = {"kappa": note, "nu_ref": note}
     params: dict[str, Any] = {
         "local": {name: _entry(mu_fit.values[name], mu_fit.errors[name], on_rheo) for name in mu_fit.names}
         | {name: _entry(nu_fit.values[name], nu_fit.errors[name], on_rheo) for name in nu_fit.names},
         "critical_state": {
-            name: _entry(cs_fit.values[name], cs_fit.errors[name], on_rheo) for name in cs_fit.names
+            name: _entry(cs_fit.values[name], cs_fit.errors[name], on_rheo, cs_notes.get(name, ""))
+            for name in cs_fit.names
         }
         | {"n": _entry(settings["critical_state_n"], 0.0, "assumed", "steady planar flow does not fix the yield exponent")},
         "fit_quality": {
