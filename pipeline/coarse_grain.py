@@ -439,8 +439,8 @@ def _contact_profile_sums(data: SnapshotData, kernel: Kernel, z0: float, dz: flo
     start = np.where(above < nz, np.maximum(above, 0) + hsid * nz, size)
     steps = np.stack([np.bincount(start, (high - low) * coeff[:, q], size + 1) for q in range(coeff.shape[1])], axis=1)
     out[:-1] += np.cumsum(steps[:-1].reshape(nsnap, nz, -1), axis=1).reshape(size, -1)
-    out[:-1] += low * np.repeat(np.stack([np.bincount(hsid, coeff[:, q], nsnap) for q in range(coeff.shape[1])], axis=1),
-                                nz, axis=0)
+    per_snapshot = np.stack([np.bincount(hsid, coeff[:, q], nsnap) for q in range(coeff.shape[1])], axis=1)
+    out[:-1] += low * np.repeat(per_snapshot, nz, axis=0)
     return out[:-1]
 
 
@@ -539,8 +539,9 @@ def plane_sums(data: SnapshotData, kernel: Kernel, grid: Grid) -> np.ndarray:
         # the others the path misses the support and the weight is exactly 0 (the windows are
         # sized for the chunk's longest branch). The slack of 1e-9 c only guards rounding.
         reach = c * (1.0 + 1e-9)
-        near_x = (xk[:, :, 0] > np.minimum(x1, x2)[:, None] - reach) & (xk[:, :, 0] < np.maximum(x1, x2)[:, None] + reach)
-        near_z = okz & (zk[:, 0, :] > np.minimum(z1, z2)[:, None] - reach) & (zk[:, 0, :] < np.maximum(z1, z2)[:, None] + reach)
+        xs, zs = xk[:, :, 0], zk[:, 0, :]
+        near_x = (xs > np.minimum(x1, x2)[:, None] - reach) & (xs < np.maximum(x1, x2)[:, None] + reach)
+        near_z = okz & (zs > np.minimum(z1, z2)[:, None] - reach) & (zs < np.maximum(z1, z2)[:, None] + reach)
         okb = near_x[:, :, None] & near_z[:, None, :]
         weight = np.zeros(shape)
         weight[okb] = segment_2d(kernel, np.broadcast_to(xk - x1[:, None, None], shape)[okb],
