@@ -46,6 +46,12 @@ def predict(model: str, params: dict[str, Any], runs: list[dict[str, Any]], fiel
             continue
         if not result.converged:
             raise continuum.ConvergenceError(model, result.residual, "intruder solve did not converge", label)
+        if not np.isfinite(result.speed) or abs(result.speed) > geometry.wall_speed:
+            # A rod pushed below its yield force in the creeping zone cannot outrun the wall: such a
+            # number comes from an ill-conditioned solve (e.g. a fluidity that underflows), not physics.
+            refused.append(f"{rod['depth_over_d']:.2f} d: solve failed: speed {result.speed:.3g} m/s exceeds the wall "
+                           f"speed {geometry.wall_speed:g} m/s (ill-conditioned 2D solve)")
+            continue
         depths.append(rod["depth_over_d"])
         speeds.append(result.speed)
         seconds.append(result.solve_seconds)

@@ -123,7 +123,7 @@ def pareto_section(root: Path, figures: Figures) -> str:
         ax.legend(fontsize=7)
     no_velocity = sorted(set(sweep.model) - set(sweep.dropna(subset=["velocity_rmse_rel"]).model))
     missing = (f" Not drawn: {', '.join(no_velocity)} (no finite error on any grid)." if no_velocity else "")
-    failures = sweep[sweep.error.fillna("") != ""]
+    failures = sweep[sweep.error.astype(str).replace("nan", "") != ""]
     failed = "".join(f" {r.model} fails on {r.n_grid} nodes ({r.error[:80]})." for r in failures.itertuples())
     return ("<h2>Accuracy against cost</h2>"
             + figures.add("pareto", fig, "Error against the DEM of each model over a sweep of grid resolution, "
@@ -326,7 +326,8 @@ def wall_series_figure(runs: list[dict[str, Any]], figures: Figures) -> str:
     """Wall friction coefficient and wall height against time, steady window shaded."""
     fig, (ax_mu, ax_h) = plt.subplots(1, 2, figsize=(11, 4))
     for r in runs:
-        frames = [read_wall_series(s) for s in sorted((r["_dir"] / "series").glob("*.txt"))]
+        files = sorted((r["_dir"] / "series").glob("shear_*.txt")) + sorted((r["_dir"] / "series").glob("production_*.txt"))
+        frames = [read_wall_series(s) for s in files]
         data = pd.concat(frames, ignore_index=True).sort_values("time")
         area = r["cell"][0] * r["cell"][1]
         label = f"{r['case']}/{r['run']}"
