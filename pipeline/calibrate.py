@@ -190,7 +190,9 @@ def calibrate_nonlocal(params: dict[str, Any], path: Path, settings: dict[str, A
     ngf0 = ngf_parameters(base, A=0.48)
     fit = fits.fit_nonlocal_length("ngf", geometry, lambda a: replace(ngf0, A=a), z, u, err,
                                    initial=0.48, bounds=(0.01, 10.0), name="A", case=where)
-    out["ngf"] = {"A": _entry(fit.values["A"], fit.errors["A"], where)}
+    at_bound = fit.values["A"] < 0.0101 or fit.values["A"] > 9.99
+    out["ngf"] = {"A": _entry(fit.values["A"], fit.errors["A"], where,
+                              "the fit sits at a bound of [0.01, 10]: the DEM creep is not NGF-shaped here" if at_bound else "")}
     d = geometry.d
     for model, build in (("cosserat", cosserat_parameters), ("volume_averaged", volume_averaged_parameters)):
         start = build(base, l=d, settings=settings)
