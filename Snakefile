@@ -8,7 +8,11 @@ from pipeline import targets
 min_version("9.0")
 
 
-configfile: "config/config.yaml"
+# The default config only when none is given: --configfile replaces it rather than being
+# merged into it (a merge would leak default keys into the reduced config).
+if not workflow.overwrite_configfiles:
+
+    configfile: "config/config.yaml"
 
 
 validate(config, "config/schema.yaml")
