@@ -123,7 +123,9 @@ def pareto_section(root: Path, figures: Figures) -> str:
         ax.legend(fontsize=7)
     no_velocity = sorted(set(sweep.model) - set(sweep.dropna(subset=["velocity_rmse_rel"]).model))
     missing = (f" Not drawn: {', '.join(no_velocity)} (no finite error on any grid)." if no_velocity else "")
-    failures = sweep[sweep.error.astype(str).replace("nan", "") != ""]
+    # Empty error cells read back as NaN (pandas 3 keeps them missing even as str).
+    errors = sweep["error"].where(sweep["error"].notna(), "").astype(str)
+    failures = sweep[errors != ""]
     failed = "".join(f" {r.model} fails on {r.n_grid} nodes ({r.error[:80]})." for r in failures.itertuples())
     return ("<h2>Accuracy against cost</h2>"
             + figures.add("pareto", fig, "Error against the DEM of each model over a sweep of grid resolution, "
