@@ -276,18 +276,23 @@ def calibration_section(root: Path, figures: Figures) -> str:
 def stability_section(root: Path, figures: Figures) -> str:
     parts = ["<h2>Stability: where methods fail</h2>"]
     wp = pd.read_csv(root / "stability" / "well_posedness.csv")
-    sets = sorted(wp.parameter_set.unique())
-    fig, axes = plt.subplots(1, len(sets), figsize=(4.2 * len(sets), 3.2), sharey=True, squeeze=False)
-    for ax, name in zip(axes[0], sets):
-        sub = wp[wp.parameter_set == name]
-        models = sorted(sub.model.unique())
-        for k, model in enumerate(models):
-            m = sub[sub.model == model]
+    # "glass_beads_reference+compressible" -> family "glass_beads_reference", row "local_mu_i (compressible)"
+    family = wp.parameter_set.str.split("+").str[0]
+    variant = wp.parameter_set.str.split("+").str[1].fillna("")
+    wp = wp.assign(family=family, row=wp.model + np.where(variant != "", " (" + variant + ")", ""))
+    rows = sorted(wp.row.unique())
+    families = sorted(wp.family.unique())
+    fig, axes = plt.subplots(1, len(families), figsize=(5.5 * len(families), 0.45 * len(rows) + 1.2),
+                             sharey=True, squeeze=False)
+    for ax, name in zip(axes[0], families):
+        sub = wp[wp.family == name]
+        for k, row in enumerate(rows):
+            m = sub[sub.row == row]
             ax.scatter(m.I, [k] * len(m), c=np.where(m.well_posed, "tab:green", "tab:red"), s=14, marker="s")
-        ax.set_yticks(range(len(models)), models, fontsize=7)
+        ax.set_yticks(range(len(rows)), rows, fontsize=7)
         ax.set_xscale("log")
         ax.set_xlabel("inertial number I (-)")
-        ax.set_title(name, fontsize=8)
+        ax.set_title(f"parameters: {name}", fontsize=9)
     parts.append(figures.add("well_posedness", fig, "Linear stability about simple shear: green well posed (growth bounded as the wavenumber grows), red ill posed."))
     mesh_path = root / "stability" / "mesh_convergence.csv"
     if mesh_path.exists():
