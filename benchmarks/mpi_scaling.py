@@ -7,7 +7,8 @@ call writing a new restart), so the grains, the rough walls, the contact law, th
 the chunk input are exactly the pipeline's (``liggghts_inputs/planar_shear/shear.in``). The same rendered input is then run with
 ``mpirun -n 1`` and ``mpirun -n 2``; the speed-up is the ratio of the LIGGGHTS loop times
 (wall-clock times, start-up included, are printed too). Runs alternate between the rank counts so
-a changing machine load hits both alike; the load average is printed before and after.
+a changing machine load hits both alike; the load average is printed before and after, and the
+CPU seconds of all ranks (a busy-waiting rank counts its waiting too).
 
 Usage: ``python benchmarks/mpi_scaling.py [--source RUN_DIR] [--replicate 6 5] [--steps 3000] [--repeat 1]``
 """
@@ -17,6 +18,7 @@ import argparse
 import json
 import os
 import re
+import resource
 import shutil
 import subprocess
 import sys
@@ -58,8 +60,10 @@ def prepare(source: Path, work: Path, nx: int, ny: int, steps: int) -> Path:
     last = state["chunks"][-1]
     bench = work / "bench"
     bench.mkdir()
-    for name in ("common_settings.in", "materials.in", "shear.in"):
+    for name in ("materials.in", "shear.in"):
         shutil.copy(source / name, bench / name)
+    # The repository's shared settings (the MPI domain layout among them), not the source run's copy.
+    shutil.copy(REPO / "liggghts_inputs" / "common_settings.in", bench / "common_settings.in")
     shutil.copy(source / last["restart"], bench / "start.restart")
     text = (source / f"in.{last['stage']}").read_text()
     overrides = {"restart_in": "tiled.restart", "restart_out": "end.restart", "first_chunk": "0",
@@ -84,14 +88,73 @@ def prepare(source: Path, work: Path, nx: int, ny: int, steps: int) -> Path:
 def run(bench: Path, ranks: int) -> dict[str, float]:
     """One run on ``ranks`` MPI ranks; wall-clock and LIGGGHTS loop time (s)."""
     log = f"log.{ranks}"
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
     with open(bench / f"screen.{ranks}", "w") as screen:
         subprocess.run(["mpirun", "-n", str(ranks), "liggghts", "-in", "in.bench", "-log", log], cwd=bench,
                        stdout=screen, stderr=subprocess.STDOUT, env=_mpi_environment(), check=True)
     wall = time.perf_counter() - start
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    # CPU seconds of all ranks (mpirun waits for them, so they count as our children's children).
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     match = _LOOP.search((bench / log).read_text())
     assert match and int(match.group(2)) == ranks, f"no loop time for {ranks} ranks in {bench / log}"
-    return {"wall": wall, "loop": float(match.group(1)), "steps": int(match.group(3)), "atoms": int(match.group(4))}
+    grid = re.search(r"(\d+ by \d+ by \d+) MPI processor grid", (bench / log).read_text())
+    return {"wall": wall, "loop": float(match.group(1)), "steps": int(match.group(3)), "atoms": int(match.group(4)),
+            "cpu": cpu, "grid": grid.group(1) if grid else "?"}
+
+
+# ------------------------------------------------------------------------------- projection
+#: The largest study projected (docs/scaling.md): (case, grains per cell, runs per replica, replicas).
+#: Rheometer: the 7 states of config/config.yaml; intruder: 3 depths plus the control run.
+STUDY = (("rheometer", 20_000, 7, 5), ("shear_gravity", 100_000, 1, 5), ("intruder", 50_000, 4, 5))
+RHEOMETER_STATES = ((0.002, 200.0), (0.006, 200.0), (0.02, 200.0), (0.06, 200.0), (0.2, 200.0),
+                    (0.02, 600.0), (0.06, 600.0))
+D, RHO_S, NU, G = 0.002, 2500.0, 0.6, 9.81
+CHUNKS = 12  # shear chunks to steady state (4-8 seen with config.yaml) plus 4 production chunks
+CHUNK_STRAIN = 0.5
+FILL_OVERHEAD = 0.1  # pouring and settling, as a fraction of the shearing steps (reduced runs: < 10 %)
+
+
+def projection(throughput: float, efficiency: float, ranks: int = 8) -> list[dict[str, float]]:
+    """Core-hours of the STUDY from a measured throughput (atom-steps per core-second) and parallel
+    efficiency, taken to hold at ``ranks`` ranks per run (profiles/slurm: 8, i.e. 2500 to 12500
+    grains per rank; an assumption: only 2 ranks were measured).
+
+    Steps per chunk: rheometer ``chunk_strain d / (I sqrt(P / rho_s) dt)`` (independent of the cell
+    size); sheared beds ``chunk_strain H / (V dt)`` with H the bed depth at solid fraction NU. The
+    time step follows the contact design: dt ~ p_max^(-1/2) (stiffness ~ the largest pressure at a
+    fixed design overlap), scaled from dt = 2.26e-6 s at p_max = 820 Pa (config/config.yaml).
+    """
+    v_grain = 0.54 * D**3  # mean grain volume of the +-20 % size distribution
+    depth = {"shear_gravity": 100_000 * v_grain / (NU * (40 * D) ** 2),
+             "intruder": 50_000 * v_grain / (NU * (40 * D) * (20 * D))}
+    p_max = 200.0 + RHO_S * NU * G * max(depth.values())
+    dt = 2.26e-6 * (820.0 / p_max) ** 0.5
+    rows = []
+    for case, grains, runs, replicas in STUDY:
+        if case == "rheometer":
+            steps = sum(CHUNKS * CHUNK_STRAIN * D / (i * (p / RHO_S) ** 0.5 * dt) for i, p in RHEOMETER_STATES)
+            longest = CHUNKS * CHUNK_STRAIN * D / (min(i for i, _ in RHEOMETER_STATES) * (200.0 / RHO_S) ** 0.5 * dt)
+        else:
+            steps = runs * CHUNKS * CHUNK_STRAIN * depth[case] / (0.1 * dt)
+            longest = steps / runs
+        atom_steps = grains * steps * replicas * (1.0 + FILL_OVERHEAD)
+        core_hours = atom_steps / (throughput * efficiency) / 3600.0
+        hours = grains * longest * (1.0 + FILL_OVERHEAD) / (throughput * efficiency * ranks) / 3600.0
+        rows.append({"case": case, "grains": grains, "runs": runs * replicas, "steps_per_replica": steps,
+                     "core_hours": core_hours, "ranks_per_run": ranks, "longest_run_hours": hours})
+    return rows
+
+
+def print_projection(throughput: float, efficiency: float) -> None:
+    rows = projection(throughput, efficiency)
+    print(f"projection at {throughput:.3g} atom-steps/s per core, parallel efficiency {efficiency:.2f}:")
+    for r in rows:
+        print(f"  {r['case']:>13}: {r['grains']:>7} grains, {r['runs']:>3} runs, {r['steps_per_replica']:.3g} steps "
+              f"per replica, {r['core_hours']:.0f} core-h; {r['ranks_per_run']} ranks per run, longest run "
+              f"{r['longest_run_hours']:.1f} h")
+    print(f"  total: {sum(r['runs'] for r in rows)} runs, {sum(r['core_hours'] for r in rows):.0f} core-hours")
 
 
 def load() -> str:
@@ -105,7 +168,12 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=3000)
     parser.add_argument("--repeat", type=int, default=1)
     parser.add_argument("--keep", type=Path, help="keep the work folder here")
+    parser.add_argument("--project", type=float, nargs=2, metavar=("THROUGHPUT", "EFFICIENCY"),
+                        help="only print the projection for these measured values")
     args = parser.parse_args()
+    if args.project:
+        print_projection(*args.project)
+        return
     work = Path(tempfile.mkdtemp(prefix="mpi_scaling_"))
     try:
         source = args.source or make_source(work)
@@ -116,13 +184,16 @@ def main() -> None:
             for ranks in (1, 2):
                 results[ranks].append(run(bench, ranks))
                 r = results[ranks][-1]
-                print(f"{ranks} rank(s): {r['atoms']} atoms, {r['steps']} steps: loop {r['loop']:.2f} s, "
-                      f"wall {r['wall']:.2f} s, {r['atoms'] * r['steps'] / r['loop'] / ranks:.3g} atom-steps/s per core")
+                print(f"{ranks} rank(s) ({r['grid']}): {r['atoms']} atoms, {r['steps']} steps: loop {r['loop']:.2f} s, "
+                      f"wall {r['wall']:.2f} s, CPU {r['cpu']:.2f} s, "
+                      f"{r['atoms'] * r['steps'] / r['loop'] / ranks:.3g} atom-steps/s per core")
         print(f"load average after: {load()}")
         best = {k: min(v, key=lambda r: r["loop"]) for k, v in results.items()}
         speedup = best[1]["loop"] / best[2]["loop"]
         print(f"speed-up 2 ranks vs 1: {speedup:.2f} (loop time), "
               f"{best[1]['wall'] / best[2]['wall']:.2f} (wall clock); parallel efficiency {speedup / 2:.0%}")
+        r1 = best[1]
+        print_projection(r1["atoms"] * r1["steps"] / r1["loop"], speedup / 2)
     finally:
         if args.keep:
             shutil.copytree(work, args.keep, dirs_exist_ok=True)
