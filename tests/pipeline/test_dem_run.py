@@ -125,6 +125,8 @@ def test_two_mpi_ranks_conserve_grains_and_agree_with_one(reduced_results: Path,
     two = json.loads((out / "run.json").read_text()) | {"_dir": out}
     assert two["mpi_ranks"] == 2
     assert "2 procs" in (out / "logs" / "production_000.log").read_text()
+    # Domains split the periodic plane, not z (mostly empty space above the bed: one rank got every grain).
+    assert "2 by 1 by 1 MPI processor grid" in (out / "logs" / "production_000.log").read_text()
     for dump in two["particle_dumps"]:
         text = (out / dump).read_text().splitlines()
         counts = {int(text[i + 1]) for i, line in enumerate(text) if line == "ITEM: NUMBER OF ATOMS"}
