@@ -18,6 +18,7 @@ import numpy as np
 import pandas as pd
 
 import continuum
+from pipeline import atomic
 from pipeline import metrics
 from pipeline.calibrate import model_parameters
 from pipeline.metrics import MetricError, Profile
@@ -78,9 +79,7 @@ def main(argv: list[str] | None = None) -> int:
     for case in sorted({p.parent.name for p in args.fields}):
         frames.append(sweep(case, [p for p in args.fields if p.parent.name == case], params, args.models))
     table = pd.concat(frames, ignore_index=True)
-    tmp = args.out.with_name(args.out.name + ".tmp")
-    table.to_csv(tmp, index=False)
-    tmp.replace(args.out)
+    atomic.write_csv(table, args.out)
     print(table.to_string(index=False))
     return 0
 

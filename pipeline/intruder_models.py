@@ -23,6 +23,7 @@ import xarray as xr
 
 import continuum
 from continuum.intruder import GridOptions, RodIntruder, intruder_speed
+from pipeline import atomic
 from pipeline.calibrate import model_parameters, planar_geometry
 from pipeline.config import load_config
 from pipeline.provenance import provenance_attrs
@@ -85,10 +86,7 @@ def main(argv: list[str] | None = None) -> int:
     pairs = [(r, xr.open_dataset(f)) for r, f in zip(records, args.fields, strict=True) if not r["intruder"]["control"]]
     result = predict(args.model, params, [r for r, _ in pairs], [f for _, f in pairs])
     result.attrs.update(provenance_attrs(config))
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = args.out.with_name(args.out.name + ".tmp")
-    result.to_netcdf(tmp)
-    tmp.replace(args.out)
+    atomic.write_netcdf(result, args.out)
     print(f"{args.model}: speeds {result.speed.values} m/s at depths {result.depth_over_d.values} d; "
           f"refused {json.loads(result.attrs['refused'])}")
     return 0

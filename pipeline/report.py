@@ -20,6 +20,7 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
+from pipeline import atomic
 from pipeline.config import dem_runs, load_config
 from pipeline.html_report import figure_html, page, table_html
 from pipeline.provenance import software_versions
@@ -403,9 +404,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     config = load_config(args.config)
     out = Path(args.out)
-    tmp = out.with_name(out.name + ".tmp")
-    tmp.write_text(build_report(config, args.figures))
-    tmp.replace(out)
+    atomic.write_text(build_report(config, args.figures), out)
     return 0
 
 

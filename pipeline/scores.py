@@ -23,6 +23,7 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
+from pipeline import atomic
 from pipeline import metrics
 from pipeline.metrics import MetricError, Profile
 
@@ -184,9 +185,7 @@ def main(argv: list[str] | None = None) -> int:
         model_files = {p.stem: p for p in args.models if p.parent.name == case}
         frames.append(score_case(case, field_files, model_files))
     scores = pd.concat(frames, ignore_index=True)
-    tmp = args.out.with_name(args.out.name + ".tmp")
-    scores.to_csv(tmp, index=False)
-    tmp.replace(args.out)
+    atomic.write_csv(scores, args.out)
     print(scores.to_string(index=False))
     return 0
 

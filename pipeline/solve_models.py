@@ -22,6 +22,7 @@ import xarray as xr
 
 import continuum
 from continuum.geometry import PlanarShear
+from pipeline import atomic
 from pipeline.calibrate import model_parameters
 from pipeline.config import load_config
 from pipeline.formats import FormatError, open_fields
@@ -94,10 +95,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: {exc}", file=sys.stderr)
         return 1
     solution.attrs.update(provenance_attrs(config))
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = args.out.with_name(args.out.name + ".tmp")
-    solution.to_netcdf(tmp)
-    tmp.replace(args.out)
+    atomic.write_netcdf(solution, args.out)
     print(f"{args.model} on {args.case}: n_grid {n_grid}, {solution.attrs['solve_seconds'] * 1e3:.2f} ms, "
           f"tau {solution.attrs.get('tau', float('nan')):.4g} Pa")
     return 0

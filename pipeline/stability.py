@@ -17,6 +17,7 @@ import numpy as np
 import pandas as pd
 
 from continuum import stability
+from pipeline import atomic
 from pipeline.calibrate import values
 
 #: Inertial numbers of the classification grid (log-spaced across the dense-flow range).
@@ -61,10 +62,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     params = json.loads(args.params.read_text()) if args.params else None
     result = table(params)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = args.out.with_name(args.out.name + ".tmp")
-    result.to_csv(tmp, index=False)
-    tmp.replace(args.out)
+    atomic.write_csv(result, args.out)
     summary = result.groupby(["model", "parameter_set"])["well_posed"].agg(["sum", "count"])
     print(summary.to_string())
     return 0
