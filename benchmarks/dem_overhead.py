@@ -6,7 +6,7 @@ restart bookkeeping) is timed from outside. Then every stage input it rendered (
 order, renaming each restart as the pipeline does. Both do exactly the same LIGGGHTS steps; the
 ratio of the two wall times is the overhead. Pairs are alternated to share machine load.
 
-Usage: ``python benchmarks/dem_overhead.py [--config config/ci.yaml] [--case rheometer] [--run I0.2-r1] [--repeat 2]``
+Usage: ``python benchmarks/dem_overhead.py [--config config/ci.yaml] [--case rheometer] [--run I0.2-P200-r1] [--repeat 2]``
 """
 from __future__ import annotations
 
@@ -56,7 +56,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--config", default="config/ci.yaml")
     parser.add_argument("--case", default="rheometer")
-    parser.add_argument("--run", default="I0.2-r1")
+    parser.add_argument("--run", default="I0.2-P200-r1")
     parser.add_argument("--repeat", type=int, default=2)
     args = parser.parse_args()
     ratios = []
