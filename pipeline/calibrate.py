@@ -169,8 +169,8 @@ def calibrate(config: dict[str, Any], rheometer_files: list[Path], nonlocal_file
     }
     if nonlocal_file is not None:
         params["nonlocal"] = calibrate_nonlocal(params, Path(nonlocal_file), settings)
-    d = float(xr.open_dataset(rheometer_files[0]).attrs["d"])
-    rho_s = float(xr.open_dataset(rheometer_files[0]).attrs["rho_s"])
+    with open_fields(rheometer_files[0]) as first:
+        d, rho_s = float(first.attrs["d"]), float(first.attrs["rho_s"])
     params["d"] = d
     params["rho_s"] = rho_s
     params["provenance"] = provenance(config)
@@ -179,7 +179,7 @@ def calibrate(config: dict[str, Any], rheometer_files: list[Path], nonlocal_file
 
 def calibrate_nonlocal(params: dict[str, Any], path: Path, settings: dict[str, Any]) -> dict[str, Any]:
     """NGF A and the Cosserat and volume-averaged l, each fitted to the creep of one run."""
-    ds = xr.open_dataset(path)
+    ds = open_fields(path)
     geometry, _ = planar_geometry(ds)
     z, u, err = creep_profile(ds, settings)
     where = f"{ds.attrs.get('case', '?')}/{ds.attrs.get('run', path.stem)}"

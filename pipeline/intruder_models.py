@@ -23,6 +23,7 @@ import xarray as xr
 
 import continuum
 from continuum.intruder import GridOptions, RodIntruder, intruder_speed
+from pipeline.formats import open_fields
 from pipeline import atomic
 from pipeline.calibrate import model_parameters, planar_geometry
 from pipeline.config import load_config
@@ -83,7 +84,7 @@ def main(argv: list[str] | None = None) -> int:
     config = load_config(args.config)
     params = json.loads(args.params.read_text())
     records = [json.loads(p.read_text()) for p in args.runs]
-    pairs = [(r, xr.open_dataset(f)) for r, f in zip(records, args.fields, strict=True) if not r["intruder"]["control"]]
+    pairs = [(r, open_fields(f)) for r, f in zip(records, args.fields, strict=True) if not r["intruder"]["control"]]
     result = predict(args.model, params, [r for r, _ in pairs], [f for _, f in pairs])
     result.attrs.update(provenance_attrs(config))
     atomic.write_netcdf(result, args.out)

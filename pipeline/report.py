@@ -20,6 +20,7 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
+from pipeline.formats import open_fields
 from pipeline import atomic
 from pipeline.config import dem_runs, load_config
 from pipeline.html_report import figure_html, page, table_html
@@ -154,7 +155,7 @@ def profiles_section(root: Path, config: dict[str, Any], figures: Figures) -> st
     parts = ["<h2>Profiles</h2>"]
     for case in scored_cases(config):
         files = sorted((root / "fields" / case).glob("*.nc"))
-        reps = [xr.open_dataset(f) for f in files]
+        reps = [open_fields(f) for f in files]
         z0 = float(reps[0].attrs["z_bottom_wall"])
         d = float(reps[0].attrs["d"])
         V = float(reps[0].attrs["wall_speed"])
@@ -354,7 +355,7 @@ def wall_series_figure(runs: list[dict[str, Any]], figures: Figures) -> str:
 def fields_checks_table(root: Path, config: dict[str, Any]) -> pd.DataFrame:
     rows = []
     for case, run in dem_runs(config):
-        ds = xr.open_dataset(root / "fields" / case / f"{run}.nc")
+        ds = open_fields(root / "fields" / case / f"{run}.nc")
         row = {"case": case, "run": run, "snapshots": int(ds.attrs.get("number_of_snapshots", -1))}
         for key, value in ds.attrs.items():
             if key.startswith("check_") and any(s in key for s in ("balance_", "wall_series_")) and np.isscalar(value):
