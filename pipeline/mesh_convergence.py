@@ -34,7 +34,6 @@ import xarray as xr
 import continuum
 from continuum.geometry import PlanarShear
 from continuum.mesh_study import N_GRIDS, mesh_study, weak_plane_packing
-from pipeline.formats import open_fields
 from pipeline.calibrate import CalibrationError, model_parameters
 from pipeline.solve_models import case_geometry
 
@@ -78,7 +77,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--n-grid", type=int, nargs="+", default=list(N_GRIDS), help="grid sizes (default 16..4096)")
     args = parser.parse_args(argv)
     params = json.loads(args.params.read_text())
-    fields = [open_fields(f) for f in args.fields]
+    fields = [xr.open_dataset(f) for f in args.fields]
     geometry, _ = case_geometry(fields)
     for ds in fields:
         ds.close()

@@ -23,7 +23,6 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from pipeline.formats import open_fields
 from pipeline import atomic
 from pipeline import metrics
 from pipeline.metrics import MetricError, Profile
@@ -36,7 +35,7 @@ def replica_profiles(files: list[Path]) -> list[xr.Dataset]:
     """The replicas' fields, each interpolated onto the first replica's z."""
     if not files:
         raise FileNotFoundError("no DEM fields files to score against")
-    sets = [open_fields(f) for f in files]
+    sets = [xr.open_dataset(f) for f in files]
     z = sets[0].z
     return [sets[0]] + [ds.interp(z=z) for ds in sets[1:]]
 
