@@ -6,12 +6,15 @@ invalid config stops everything with a message naming the file, the key and what
 from __future__ import annotations
 
 import hashlib
+import math
 import re
 from pathlib import Path
 from typing import Any
 
 import jsonschema
 import yaml
+
+from pipeline.liggghts_render import size_classes
 
 SCHEMA_PATH = Path(__file__).resolve().parent.parent / "config" / "schema.yaml"
 
@@ -44,12 +47,36 @@ def _check_consistency(config: dict[str, Any], source: str) -> None:
             f"{source}: material.design_overlap ({mat['design_overlap']}) must be below "
             f"material.max_overlap ({mat['max_overlap']})"
         )
+    for name, case in config["cases"].items():
+        pressure = working_pressure(config, name)
+        if pressure > mat["design_pressure"]:
+            raise ConfigError(
+                f"{source}: cases.{name}: largest working pressure {pressure:.0f} Pa (wall load plus the "
+                f"bed's weight) exceeds material.design_pressure ({mat['design_pressure']} Pa): its "
+                f"overlaps would exceed material.design_overlap; raise design_pressure"
+            )
     dem = config["dem"]
     if dem["steady_window_chunks"] > dem["max_shear_chunks"]:
         raise ConfigError(
             f"{source}: dem.steady_window_chunks ({dem['steady_window_chunks']}) exceeds "
             f"dem.max_shear_chunks ({dem['max_shear_chunks']})"
         )
+
+
+def mean_grain_volume(d: float, polydispersity: float, n_sizes: int) -> float:
+    """Number-mean grain volume (m3) of the discrete size distribution."""
+    return float(sum(math.pi * s**3 / 6.0 for s in size_classes(d, polydispersity, n_sizes)) / n_sizes)
+
+
+def working_pressure(config: dict[str, Any], case_name: str) -> float:
+    """Largest normal stress (Pa) in a case: its largest top-wall load plus the bed's weight per area."""
+    mat = config["material"]
+    case = config["cases"][case_name]
+    area = case["cell_x"] * case["cell_y"] * mat["d"] ** 2
+    v_grain = mean_grain_volume(mat["d"], mat["polydispersity"], mat["n_sizes"])
+    weight = case["n_grains"] * v_grain * mat["rho_s"] * case["gravity"]
+    loads = [p for _, p in rheometer_states(case)] if case_name == "rheometer" else [case["wall_pressure"]]
+    return max(loads) + weight / area
 
 
 def load_config(path: str | Path) -> dict[str, Any]:

@@ -36,7 +36,7 @@ import numpy as np
 import pandas as pd
 
 from pipeline import liggghts_render as render
-from pipeline.config import ConfigError, dem_config, derived_seed, liggghts_seed, load_config, rheometer_states, run_state
+from pipeline.config import ConfigError, dem_config, derived_seed, liggghts_seed, load_config, mean_grain_volume, run_state
 from pipeline.contact_scaling import ContactDesign, design_contacts
 from pipeline.formats import RUN_FORMAT_VERSION
 from pipeline.liggghts_log import DEMRunError, check_run, printed_value
@@ -62,29 +62,15 @@ WALL_DAMPING_RATIO = 0.1
 SETTLED_KE_PER_GRAIN = 1e-3
 
 
-def mean_grain_volume(d: float, polydispersity: float, n_sizes: int) -> float:
-    """Number-mean grain volume (m3) of the discrete size distribution."""
-    return float(np.mean([math.pi * s**3 / 6.0 for s in render.size_classes(d, polydispersity, n_sizes)]))
-
-
-def largest_pressure(config: dict[str, Any]) -> float:
-    """Largest working pressure (Pa) of any case: the top-wall load plus the weight of the bed."""
-    mat = config["material"]
-    v_grain = mean_grain_volume(mat["d"], mat["polydispersity"], mat["n_sizes"])
-    p_max = 0.0
-    for name, case in config["cases"].items():
-        area = case["cell_x"] * case["cell_y"] * mat["d"] ** 2
-        weight = case["n_grains"] * v_grain * mat["rho_s"] * case["gravity"]
-        pressures = [p for _, p in rheometer_states(case)] if name == "rheometer" else [case["wall_pressure"]]
-        p_max = max(p_max, max(pressures) + weight / area)
-    return p_max
-
-
 def contact_design(config: dict[str, Any]) -> ContactDesign:
-    """The one contact design shared by all cases, so the calibration transfers between them."""
+    """The one contact design shared by all cases, so the calibration transfers between them.
+
+    It depends on the material section only (``design_pressure`` sets the stiffness), never on
+    the other cases of the config: a DEM run reads a config that holds its own case alone.
+    """
     mat = config["material"]
     return design_contacts(
-        p_max=largest_pressure(config),
+        p_max=mat["design_pressure"],
         d=mat["d"],
         polydispersity=mat["polydispersity"],
         rho_s=mat["rho_s"],

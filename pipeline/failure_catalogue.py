@@ -253,14 +253,14 @@ def dem_failure_runs(config: dict[str, Any], work: Path) -> list[tuple[str, floa
     * time step 25 x the designed one (1 contact time) once the bed has settled
       (:class:`LargeTimeStepRun`);
     * soft grains and walls: design overlap 0.0095 d next to the bound max_overlap = 0.01 d, at
-      a wall pressure of 2000 Pa (the stiffness is designed for the largest pressure; a high one
+      a wall pressure and design pressure of 2000 Pa (a high design pressure
       keeps the Young's modulus above LIGGGHTS's 5e6 Pa floor for SI units, so the run reaches
       the overlap check instead of being refused by LIGGGHTS);
     * too few grains: 60 grains in a 5 x 5 d cell (a bed about 2 d thick between the walls).
     """
     base = tiny_config(config)
     soft = copy.deepcopy(base)
-    soft["material"].update({"design_overlap": 0.0095, "max_overlap": 0.01})
+    soft["material"].update({"design_overlap": 0.0095, "max_overlap": 0.01, "design_pressure": 2000.0})
     soft["cases"]["rheometer"]["wall_pressure"] = 2000.0
     soft = validate_config(soft, "failure catalogue (soft grains)")
     few = tiny_config(config, n_grains=60)
