@@ -43,6 +43,18 @@ def intruder_runs(wildcards):
     return targets.intruder_run_jsons(wildcards, config)
 
 
+def convergence_run_jsons(wildcards):
+    return targets.convergence_run_jsons(wildcards, config)
+
+
+def convergence_stores(wildcards):
+    return targets.convergence_stores(wildcards, config)
+
+
+def convergence_fields(wildcards):
+    return targets.convergence_fields(wildcards, config)
+
+
 def dem_case_config(wildcards):
     return targets.effective_config_file(config, dem_case=wildcards.case)
 
@@ -230,6 +242,27 @@ rule cost_accuracy:
         "--models {params.models} --out {output} > {log} 2>&1"
 
 
+rule dem_convergence:
+    message:
+        "DEM field noise against core-seconds of {wildcards.case}: averaging time and system size"
+    conda:
+        ENV
+    input:
+        config=CONFIG_JSON,
+        runs=convergence_run_jsons,
+        stores=convergence_stores,
+        fields=convergence_fields,
+    output:
+        f"{ROOT}/dem_convergence/{{case}}.csv",
+    log:
+        f"{ROOT}/logs/dem_convergence/{{case}}.log",
+    benchmark:
+        f"{ROOT}/benchmarks/dem_convergence/{{case}}.tsv"
+    shell:
+        "python -m pipeline.dem_convergence --config {input.config} --case {wildcards.case} "
+        "--runs {input.runs} --fields {input.fields} --out {output} > {log} 2>&1"
+
+
 # ------------------------------------------------------------------------------ stability
 rule well_posedness:
     message:
@@ -296,7 +329,7 @@ rule report:
     input:
         config=CONFIG_JSON,
         runs=targets.run_json_paths(config),
-        fields=targets.fields_paths(config),
+        fields=targets.fields_paths(config, size_study=True),
         params=f"{ROOT}/calibration/params.json",
         models=targets.model_paths(config),
         well_posedness=f"{ROOT}/stability/well_posedness.csv",
@@ -305,6 +338,7 @@ rule report:
         intruder_models=targets.intruder_model_paths(config),
         mesh=f"{ROOT}/stability/mesh_convergence.csv",
         failures=f"{ROOT}/stability/failure_catalogue.csv",
+        dem_convergence=targets.convergence_paths(config),
     output:
         html=f"{ROOT}/report.html",
         figures=[

@@ -116,7 +116,29 @@ def run_ids(case_name: str, case: dict[str, Any]) -> list[str]:
         if case.get("control", False):
             runs += [f"D{min(depths):g}-control-{rep}" for rep in replicas]
         return runs
-    return replicas
+    return replicas + size_study_runs(case)
+
+
+def size_study_runs(case: dict[str, Any]) -> list[str]:
+    """Runs of the DEM system-size study of a planar case: ``L<cell in d>-r<k>``."""
+    study = case.get("size_study") or {}
+    return [f"L{cell:g}-r{k + 1}" for cell in study.get("cells", []) for k in range(study.get("replicas", 0))]
+
+
+def size_study_cell(run: str) -> float | None:
+    """Cell length (in d) of a size-study run id ``L<cell>-r<k>``; None for any other run."""
+    match = re.fullmatch(r"L([0-9.eE+-]+)-r\d+", run)
+    return float(match.group(1)) if match else None
+
+
+def run_case(case: dict[str, Any], run: str) -> dict[str, Any]:
+    """The case spec one run uses: a size-study run has a square L x L cell and the grains per
+    area of the case (same bed height, same pressures); every other run the case as given."""
+    cell = size_study_cell(run)
+    if cell is None:
+        return case
+    scale = cell * cell / (case["cell_x"] * case["cell_y"])
+    return {**case, "cell_x": cell, "cell_y": cell, "n_grains": int(round(case["n_grains"] * scale))}
 
 
 def dem_runs(config: dict[str, Any]) -> list[tuple[str, str]]:

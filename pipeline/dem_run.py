@@ -36,7 +36,7 @@ import numpy as np
 import pandas as pd
 
 from pipeline import liggghts_render as render
-from pipeline.config import ConfigError, dem_config, derived_seed, liggghts_seed, load_config, mean_grain_volume, run_state
+from pipeline.config import ConfigError, dem_config, derived_seed, liggghts_seed, load_config, mean_grain_volume, run_case, run_state
 from pipeline.contact_scaling import ContactDesign, design_contacts
 from pipeline.formats import RUN_FORMAT_VERSION
 from pipeline.liggghts_log import DEMRunError, check_run, printed_value
@@ -156,7 +156,7 @@ class PlanarShearRun:
         self.config = config
         self.case_name = case_name
         self.run_id = run_id
-        self.case = config["cases"][case_name]
+        self.case = run_case(config["cases"][case_name], run_id)
         self.mat = config["material"]
         self.dem = config["dem"]
         self.run_dir = run_dir

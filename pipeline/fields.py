@@ -107,8 +107,9 @@ def production_series(run_dir: Path) -> pd.DataFrame:
 
 
 def run_fields(config: dict[str, Any], run_dir: Path, plane: bool = False,
-               width: float | None = None) -> tuple[Result, dict[str, Any]]:
-    """Coarse-grain one run; return the result (dataset with attributes) and the checks."""
+               width: float | None = None, checks: bool = True) -> tuple[Result, dict[str, Any]]:
+    """Coarse-grain one run; return the result (dataset with attributes) and the checks
+    (none with ``checks=False``, for studies that only need the fields)."""
     run_dir = Path(run_dir)
     run = read_run_json(run_dir)
     opts = settings(config)
@@ -140,12 +141,12 @@ def run_fields(config: dict[str, Any], run_dir: Path, plane: bool = False,
         "z_bottom_wall": walls.bottom_mean, "z_top_wall": walls.top_mean,
         "dump_source": STORE_NAME if (run_dir / STORE_NAME).is_file() else "text dumps",
     })
-    checks: dict[str, Any] = {}
-    if not plane:
-        checks = physical_checks(ds, run, run_dir, particles, contacts, chosen, kernel, walls, opts)
-        for key, value in checks.items():
+    found: dict[str, Any] = {}
+    if checks and not plane:
+        found = physical_checks(ds, run, run_dir, particles, contacts, chosen, kernel, walls, opts)
+        for key, value in found.items():
             ds.attrs[f"check_{key}"] = value
-    return result, checks
+    return result, found
 
 
 def physical_checks(ds: xr.Dataset, run: dict[str, Any], run_dir: Path, particles: Dump, contacts: Dump | None,

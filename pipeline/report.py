@@ -25,7 +25,7 @@ from pipeline import atomic
 from pipeline.config import dem_runs, load_config
 from pipeline.html_report import figure_html, page, table_html
 from pipeline.provenance import software_versions
-from pipeline.targets import intruder_cases, model_names, scored_cases
+from pipeline.targets import convergence_cases, convergence_paths, fields_paths, intruder_cases, model_names, scored_cases
 from pipeline.wall_series import read_wall_series
 
 MODEL_STYLE = {
@@ -135,6 +135,43 @@ def pareto_section(root: Path, figures: Figures) -> str:
             + f"<p>{html.escape(cheapest_sentence(scores) + missing + failed)}</p>")
 
 
+def dem_convergence_section(root: Path, config: dict[str, Any], figures: Figures) -> str:
+    """Field noise of the DEM against core-seconds: averaging time and system size."""
+    frames = [pd.read_csv(p) for p in map(Path, convergence_paths(config))]
+    table = pd.concat(frames, ignore_index=True)
+    metrics_drawn = ("log_velocity_rmse", "nu_rmse")
+    fig, axes = plt.subplots(1, len(metrics_drawn), figsize=(11, 4))
+    for ax, metric in zip(axes, metrics_drawn):
+        for (case, study), sub in table[table.metric == metric].groupby(["case", "study"]):
+            sub = sub.sort_values("core_seconds")
+            marker = "o" if study == "averaging_time" else "s"
+            ax.plot(sub.core_seconds, sub.noise, marker=marker, label=f"{case}: {study.replace('_', ' ')}")
+            if study == "system_size":
+                for r in sub.itertuples():
+                    ax.annotate(f"{r.cell_over_d:g} d", (r.core_seconds, r.noise), fontsize=7,
+                                textcoords="offset points", xytext=(4, 4))
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("core-seconds of one DEM replica (s)")
+        ax.set_ylabel(f"{metric.replace('_', ' ')} between replicas (-)")
+        ax.legend(fontsize=7)
+    sentences = []
+    for (case, metric), sub in table[table.metric.isin(metrics_drawn)].groupby(["case", "metric"]):
+        best = sub.loc[sub.noise_per_sqrt_cost.idxmin()]
+        how = (f"averaging {best.averaging_fraction:.2g} of the production" if best.study == "averaging_time"
+               else f"a {best.cell_over_d:g} d cell")
+        sentences.append(f"{case}, {metric}: the cheapest noise per sqrt(core-second) comes from {how} "
+                         f"(noise {best.noise:.3g} for {best.core_seconds:.0f} core-s).")
+    shown = table[table.metric.isin(metrics_drawn)][["case", "study", "cell_over_d", "n_grains", "n_replicas",
+                                                      "averaging_strain", "core_seconds", "metric", "noise"]]
+    return ("<h2>DEM noise against cost</h2><p class='note'>Noise: the score metric between independent replicas "
+            "(the floor of the score table). Averaging time: the replicas re-averaged over the first part of their "
+            "production; system size: replicas in square cells of other lengths with the same grains per area.</p>"
+            + figures.add("dem_convergence", fig, "DEM field noise against the core-seconds of one replica; circles: "
+                          "averaging time (default cell), squares: system size (whole production).")
+            + f"<p>{html.escape(' '.join(sentences))}</p>" + table_html(shown.round(4)))
+
+
 def cheapest_sentence(scores: pd.DataFrame, metric: str = "velocity_rmse_rel", factor: float = 2.0) -> str:
     """Per case: the cheapest model within ``factor`` of the best accuracy on ``metric``."""
     out = []
@@ -154,8 +191,7 @@ def cheapest_sentence(scores: pd.DataFrame, metric: str = "velocity_rmse_rel", f
 def profiles_section(root: Path, config: dict[str, Any], figures: Figures) -> str:
     parts = ["<h2>Profiles</h2>"]
     for case in scored_cases(config):
-        files = sorted((root / "fields" / case).glob("*.nc"))
-        reps = [open_fields(f) for f in files]
+        reps = [open_fields(Path(f)) for f in fields_paths(config, case)]
         z0 = float(reps[0].attrs["z_bottom_wall"])
         d = float(reps[0].attrs["d"])
         V = float(reps[0].attrs["wall_speed"])
@@ -381,6 +417,7 @@ def build_report(config: dict[str, Any], figure_dir: Path | None = None) -> str:
         intruder_section(root, config, figures) if intruder_cases(config) else "",
         calibration_section(root, figures),
         pareto_section(root, figures),
+        dem_convergence_section(root, config, figures) if convergence_cases(config) else "",
         stability_section(root, figures),
         "<h2>DEM runs</h2>",
         "<p class='note'>LIGGGHTS, Hertz contacts with tangential history, polydisperse spheres; rough walls "

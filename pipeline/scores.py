@@ -58,7 +58,7 @@ def mean_profile(reps: list[xr.Dataset], name: str) -> tuple[np.ndarray, np.ndar
 Metric = Callable[[np.ndarray, dict[str, np.ndarray], Profile, float], float]
 
 
-def _metrics(z: np.ndarray, wall_speed: float) -> dict[str, tuple[str, Callable[..., float]]]:
+def metric_table(z: np.ndarray, wall_speed: float) -> dict[str, tuple[str, Callable[..., float]]]:
     """metric name -> (variable it needs, function(model_values, dem_values, dem_err))."""
 
     def vel_rmse(m, dem, err):
@@ -107,7 +107,7 @@ def score_case(case: str, field_files: list[Path], model_files: dict[str, Path])
     z = reps[0].z.values[mask]
     wall_speed = float(reps[0].attrs["wall_speed"])
     rows = []
-    table = _metrics(z, wall_speed)
+    table = metric_table(z, wall_speed)
     for model, path in sorted(model_files.items()):
         sol = xr.open_dataset(path)
         if not np.allclose(sol.z.values, reps[0].z.values):

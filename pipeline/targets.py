@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from pipeline.config import dem_config, dem_runs, validate_config
+from pipeline.config import dem_config, dem_runs, size_study_cell, validate_config
 
 #: Figures the report writes as PNG files (flagged with Snakemake's report()).
 REPORT_FIGURES = ("profiles", "calibration", "pareto", "well_posedness", "mesh_convergence", "wall_series")
@@ -30,14 +30,43 @@ def run_json_paths(config: dict[str, Any]) -> list[str]:
 
 def report_figures(config: dict[str, Any]) -> list[str]:
     """Names of the figures the report writes for this config."""
-    return list(REPORT_FIGURES) + (["intruder"] if intruder_cases(config) else [])
+    return (list(REPORT_FIGURES) + (["intruder"] if intruder_cases(config) else [])
+            + (["dem_convergence"] if convergence_cases(config) else []))
 
 
-def fields_paths(config: dict[str, Any], case: str | None = None) -> list[str]:
-    """``fields/{case}/{run}.nc`` of every DEM run (of one case if given)."""
+def fields_paths(config: dict[str, Any], case: str | None = None, size_study: bool = False) -> list[str]:
+    """``fields/{case}/{run}.nc`` of every DEM run (of one case if given); the runs of a
+    ``size_study`` (other cell sizes, never scored) only when asked for."""
     return [
-        str(root(config) / "fields" / c / f"{run}.nc") for c, run in dem_runs(config) if case is None or c == case
+        str(root(config) / "fields" / c / f"{run}.nc") for c, run in dem_runs(config)
+        if (case is None or c == case) and (size_study or size_study_cell(run) is None)
     ]
+
+
+def convergence_cases(config: dict[str, Any]) -> list[str]:
+    """Scored cases with two or more replicas: their DEM noise has a convergence study."""
+    return [case for case in scored_cases(config) if config["cases"][case]["replicas"] >= 2]
+
+
+def convergence_paths(config: dict[str, Any]) -> list[str]:
+    """``dem_convergence/{case}.csv`` of every case with a DEM convergence study."""
+    return [str(root(config) / "dem_convergence" / f"{case}.csv") for case in convergence_cases(config)]
+
+
+def convergence_run_jsons(wildcards: Any, config: dict[str, Any]) -> list[str]:
+    """run.json of the case's replicas and size-study runs, in :func:`convergence_fields` order."""
+    return [str(Path(f.replace(f"{root(config)}/fields/", f"{root(config)}/dem/", 1)).with_suffix("") / "run.json")
+            for f in convergence_fields(wildcards, config)]
+
+
+def convergence_fields(wildcards: Any, config: dict[str, Any]) -> list[str]:
+    """Fields of the case's replicas and size-study runs."""
+    return fields_paths(config, wildcards.case, size_study=True)
+
+
+def convergence_stores(wildcards: Any, config: dict[str, Any]) -> list[str]:
+    """Dump stores of the case's replicas (the averaging-time sweep re-averages their snapshots)."""
+    return [str(root(config) / "dem" / wildcards.case / Path(f).stem / "dumps.nc") for f in fields_paths(config, wildcards.case)]
 
 
 def mpi_launcher(config: dict[str, Any]) -> str:
