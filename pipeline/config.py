@@ -206,5 +206,6 @@ def dem_config(config: dict[str, Any], case: str | None = None) -> dict[str, Any
     """
     out = {key: value for key, value in config.items() if key not in NON_DEM_SECTIONS}
     if case is not None:
-        out["cases"] = {case: config["cases"][case]}
+        # A size study adds runs of other cell sizes; it does not change the case's own runs.
+        out["cases"] = {case: {k: v for k, v in config["cases"][case].items() if k != "size_study"}}
     return out
