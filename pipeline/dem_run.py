@@ -43,7 +43,7 @@ from pipeline.liggghts_log import DEMRunError, check_run, printed_value
 from pipeline.provenance import provenance
 from pipeline.rough_wall import layer_include, random_layer
 from pipeline.steady_state import drift_test
-from pipeline.wall_series import read_wall_series
+from pipeline.wall_series import PAIRSUM_COLUMNS, read_wall_series
 
 #: Column of ``delta`` (overlap) among the pair/gran/local outputs ``pos id force contactPoint delta``
 #: (LIGGGHTS orders them pos(6) id(3) force(3) delta(1) contactPoint(3); checked by a test on a real run).
@@ -381,6 +381,7 @@ class PlanarShearRun:
             "series_nrepeat": plan["series_nrepeat"],
             "series_every": plan["series_every"],
             "series_file": f"series/{stage}.txt",
+            "pairsum_file": f"series/pairsum_{stage}.txt",
             "thermo_every": plan["chunk_steps"] // 4,
             "chunk_steps": plan["chunk_steps"],
             "dump_every": plan["dump_every"] if production else 0,
@@ -469,6 +470,20 @@ class PlanarShearRun:
             self._run_chunk("production", index, plan)
         return self._record(plan)
 
+    def pair_force_sum(self) -> dict[str, float] | None:
+        """Mean x sum of all contact forces over production (N), relative to the mean top-wall
+        shear force; None when a production chunk has no pair-sum file (runs made before it
+        was recorded, the intruder's template)."""
+        production = [c for c in self.state["chunks"] if c["kind"] == "production"]
+        files = [self.run_dir / "series" / f"pairsum_{c['stage']}.txt" for c in production]
+        if not production or not all(f.is_file() for f in files):
+            return None
+        sums = pd.concat([read_wall_series(f, PAIRSUM_COLUMNS) for f in files], ignore_index=True)
+        shear = float(self.series(("production",))["ftop_x"].mean())
+        mean_x = float(sums["fsum_x"].mean())
+        return {"mean_x": mean_x, "mean_y": float(sums["fsum_y"].mean()),
+                "over_top_shear_force": mean_x / abs(shear) if shear else float("nan")}
+
     def _record(self, plan: dict[str, int]) -> dict[str, Any]:
         production = [c for c in self.state["chunks"] if c["kind"] == "production"]
         prod_series = self.series(("production",))
@@ -512,6 +527,7 @@ class PlanarShearRun:
             "steady_state_test": self.state["steady"],
             "production_window": [production[0]["t_start"], production[-1]["t_end"]],
             "production_drift": {"force": prod_force.as_dict(), "height": prod_height.as_dict()},
+            "pair_force_sum": self.pair_force_sum(),
             "max_overlap_over_d": float(self.series()["max_overlap"].max() / self.mat["d"]),
             "particle_dumps": [c["dumps"][0] for c in production],
             "contact_dumps": [c["dumps"][1] for c in production],

@@ -5,6 +5,12 @@ Columns (SI units; forces are those the grains exert on the wall grains):
 (N, contact force on the top wall, the applied load excluded), ``h_top`` (m, mean height of the
 top-wall grains), ``ke`` (J, translational kinetic energy of the flowing grains), ``max_overlap``
 (m, largest contact overlap at the sample).
+
+The pair-force sums (``series/pairsum_*.txt``, planar shear, same samples): ``step``, ``time`` (s),
+``fsum_x``, ``fsum_y`` (N), the x and y forces summed over every atom. No body force acts along x
+or y, so this is the sum of all contact forces: zero if every pair obeys action = reaction. LIGGGHTS
+3.8 keeps two tangential histories for a contact across a periodic boundary (newton off, which
+its granular pair style requires) and they can differ: the sum is not zero (docs/dem.md).
 """
 from __future__ import annotations
 
@@ -14,13 +20,14 @@ import numpy as np
 import pandas as pd
 
 SERIES_COLUMNS = ("step", "time", "fbot_x", "fbot_z", "ftop_x", "ftop_z", "h_top", "ke", "max_overlap")
+PAIRSUM_COLUMNS = ("step", "time", "fsum_x", "fsum_y")
 
 
 class SeriesError(ValueError):
     """A wall series file is missing, truncated or malformed."""
 
 
-def read_wall_series(path: Path) -> pd.DataFrame:
+def read_wall_series(path: Path, columns: tuple[str, ...] = SERIES_COLUMNS) -> pd.DataFrame:
     """Read one ``fix ave/time`` file; raise :class:`SeriesError` naming the file and line."""
     if not path.exists():
         raise SeriesError(f"{path}: wall series file not found")
@@ -29,8 +36,8 @@ def read_wall_series(path: Path) -> pd.DataFrame:
         if not line.strip() or line.startswith("#"):
             continue
         words = line.split()
-        if len(words) != len(SERIES_COLUMNS):
-            raise SeriesError(f"{path}:{lineno}: expected {len(SERIES_COLUMNS)} columns, found {len(words)}")
+        if len(words) != len(columns):
+            raise SeriesError(f"{path}:{lineno}: expected {len(columns)} columns, found {len(words)}")
         try:
             values = [float(w) for w in words]
         except ValueError:
@@ -40,4 +47,4 @@ def read_wall_series(path: Path) -> pd.DataFrame:
         rows.append(values)
     if not rows:
         raise SeriesError(f"{path}: no samples")
-    return pd.DataFrame(rows, columns=list(SERIES_COLUMNS))
+    return pd.DataFrame(rows, columns=list(columns))
