@@ -8,14 +8,14 @@ from .. import solve as solve_planar
 from ..errors import OutOfRangeError
 from ..geometry import PlanarShear
 from ..parameters import CriticalStateParameters, LocalMuIParameters, NGFParameters, VolumeAveragedParameters
-from .local import kinematic_speed, rod_in_static_zone, yield_force
+from .local import kinematic_speed, layer_sliding_speed, rod_in_static_zone, yield_force
 from .ngf2d import solve_2d
 from .scene import GridOptions, IntruderSpeed, RodIntruder
 
 # models with a prediction, and how it is obtained (cosserat: see docs/intruder.md)
 INTRUDER_MODELS: dict[str, str] = {
     "ngf": "2d",
-    "local_mu_i": "yield_check",
+    "local_mu_i": "layer_sliding",
     "critical_state": "yield_check",
     "volume_averaged": "kinematic",
 }
@@ -29,8 +29,11 @@ def intruder_speed(model: str, geometry: PlanarShear, params: Any, intruder: Rod
 
     - ``ngf``: 2D solve (``coupling`` "frozen": far-field fluidity, U = U_drift + F / K;
       "coupled": the 2D fluidity equation too). Fields returned.
-    - ``local_mu_i``, ``critical_state``: U = 0 if the rod lies in the 1D static zone and
-      F < the yield-force estimate (``yield_force``), else OutOfRangeError (no 2D plastic solve).
+    - ``local_mu_i``: the rod smeared into a layer of the 1D profile (``layer_sliding_speed``):
+      U = 0 in the static zone below the layer-sliding force, the speed of the layer it slides
+      above it; OutOfRangeError above the bearing (ploughing) estimate.
+    - ``critical_state``: U = 0 if the rod lies in the 1D static zone and F < the yield-force
+      estimate (``yield_force``), else OutOfRangeError (no 2D plastic solve).
     - ``volume_averaged``: below the yield force the rod is carried by the creep (U independent
       of F, the disc average of the 1D u_x); OutOfRangeError above it.
     - ``cosserat``: NotImplementedError (not solved in 2D; see docs/intruder.md).
@@ -62,6 +65,16 @@ def intruder_speed(model: str, geometry: PlanarShear, params: Any, intruder: Rod
         sin_phi = {"local_mu_i": lambda q: q.mu_i.mu_s, "critical_state": lambda q: q.sin_phi,
                    "volume_averaged": lambda q: q.critical.sin_phi}[model](params)
         yf = yield_force(planar, sin_phi, intruder, cell_length_x)
+        if model == "local_mu_i" and intruder.force_per_length < yf.bearing:
+            # Rate-dependent: below the bearing failure the rod moves with the layer it slides (or
+            # with the 1D flow it sits in, or not at all in the static zone below F_l).
+            speed, tau_top = layer_sliding_speed(planar, params.mu_i, geometry, intruder, cell_length_x, case)
+            attrs = {"yield_force_bearing": yf.bearing, "yield_force_layer": yf.layer_sliding,
+                     "tau_top": tau_top, "tau_top_without_rod": float(planar.attrs["tau"])}
+            method = "layer_sliding" if intruder.force_per_length >= yf.layer_sliding else "yield_check"
+            return IntruderSpeed(model, speed, True, 0, 0.0, time.perf_counter() - t0, int(planar.sizes["z"]), method,
+                                 yield_force=yf.value,
+                                 planar_solve_seconds=planar_seconds, attrs=attrs)
         if intruder.force_per_length >= yf.value:
             raise OutOfRangeError(model, f"F = {intruder.force_per_length:.3g} N/m is above the yield-force "
                                   f"estimate {yf.value:.3g} N/m: the rod fails; no 2D plastic solve here", case)

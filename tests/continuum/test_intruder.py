@@ -5,11 +5,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import xarray as xr
 
 import continuum
 from continuum.errors import OutOfRangeError
 from continuum.geometry import PlanarShear
 from continuum.intruder import GridOptions, RodIntruder, intruder_speed, solve_2d
+from continuum.intruder.local import layer_sliding_speed
 from continuum.parameters import LocalMuIParameters, MuIParameters, NGFParameters, SolidFractionLaw
 
 D = 0.002
@@ -55,12 +57,44 @@ def test_mobility_follows_far_field_fluidity_with_depth() -> None:
     assert 0.5 < mob_ratio / (g_over_p(6) / g_over_p(9)) < 2.0
 
 
-def test_local_mu_i_zero_below_yield_and_refuses_above() -> None:
+def test_local_mu_i_zero_below_yield_and_slides_the_layer_above() -> None:
     params = LocalMuIParameters(MU_I, SolidFractionLaw(0.6, 0.3))
     below = intruder_speed("local_mu_i", GEO, params, rod(7, 0.5), LX)
     assert below.speed == 0.0 and below.yield_force > 0.5
+    layer = below.attrs["yield_force_layer"]
+    above = intruder_speed("local_mu_i", GEO, params, rod(7, 1.2 * layer), LX)
+    # Above F_l the layer under the rod flows: the rod moves, slower than the top wall, and the
+    # top wall needs less stress to keep its speed (part of the layer is driven by the rod).
+    assert above.method == "layer_sliding"
+    assert 0.0 < above.speed < GEO.wall_speed
+    assert above.attrs["tau_top"] < above.attrs["tau_top_without_rod"]
     with pytest.raises(OutOfRangeError):
-        intruder_speed("local_mu_i", GEO, params, rod(7, 1.01 * below.yield_force), LX)
+        intruder_speed("local_mu_i", GEO, params, rod(7, 1.01 * below.attrs["yield_force_bearing"]), LX)
+
+
+def test_layer_sliding_without_gravity_matches_the_plug_solution() -> None:
+    """No gravity, uniform p: if F / L_x alone makes the layer under the rod flow and the layer
+    above stays below mu_s, the upper layer is a plug at V; the lower one shears uniformly at
+    V / z_i, so tau_top + F / L_x = p mu(I) with I = (V / z_i) d / sqrt(p / rho_s)."""
+    geo = PlanarShear(depth=20 * D, wall_speed=0.01, wall_pressure=200.0, gravity=0.0, d=D, rho_s=2500.0)
+    z = np.linspace(0.0, geo.depth, 2001)
+    planar = xr.Dataset({"p": ("z", np.full_like(z, 200.0)), "u_x": ("z", z / geo.depth * geo.wall_speed)},
+                        coords={"z": z}, attrs={"tau": 0.0})
+    r = RodIntruder(3 * D, 10 * D, force_per_length=0.5 * 200.0 * LX)  # F / L_x = 100 Pa, mu = 0.5 below
+    speed, tau_top = layer_sliding_speed(planar, MU_I, geo, r, LX)
+    inertial = geo.wall_speed / r.depth_from_bottom * D / np.sqrt(200.0 / 2500.0)
+    assert abs(tau_top) / 200.0 < MU_I.mu_s  # negative: the top wall holds the plug back
+    # The stress jump falls between grid points: the trapezoid rule shears half a cell (dz / 2 =
+    # 1e-5 m, 5e-4 of z_i) more or less, which moves mu by ~5e-4 I dmu/dI ~ 4e-6 relative.
+    assert tau_top + 100.0 == pytest.approx(200.0 * float(MU_I.mu(inertial)), rel=2e-5)
+    # Disc average of u = V above z_i and V z / z_i below (trapezoid rule on the 2001 points).
+    t = np.linspace(0.0, np.pi, 4001)
+    zz = r.depth_from_bottom - r.radius * np.cos(t)
+    u = np.where(zz >= r.depth_from_bottom, geo.wall_speed, geo.wall_speed * zz / r.depth_from_bottom)
+    exact = np.trapezoid(u * np.sin(t) ** 2, t) / np.trapezoid(np.sin(t) ** 2, t)
+    # The kink of u sits within half a grid cell of z_i: u near it is off by ~gammadot dz / 2,
+    # 5e-4 of the speed at most.
+    assert speed == pytest.approx(exact, rel=5e-4)
 
 
 def test_grid_convergence_of_speed() -> None:
