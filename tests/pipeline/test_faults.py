@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -63,11 +64,11 @@ def kill_mid_chunk(config: Path, out: Path, timeout: float = 300.0) -> dict[str,
             if time.monotonic() - start > timeout:
                 raise AssertionError("the run did not reach the chunk to kill in time")
             chunks = json.loads(state.read_text()).get("chunks", []) if state.exists() else []
-            if len(chunks) >= COMMITTED_BEFORE_KILL and (out / "logs" / "production_000.log").exists():
+            dump = out / "dumps" / "particles_000.dump"
+            # Into the chunk: LIGGGHTS has started writing its dumps.
+            if len(chunks) >= COMMITTED_BEFORE_KILL and dump.exists() and dump.stat().st_size > 0:
                 break
-            time.sleep(0.05)
-        # Into the chunk (1-2 s long): LIGGGHTS has started writing its dumps and series.
-        time.sleep(0.4)
+            time.sleep(0.02)
         os.killpg(proc.pid, signal.SIGKILL)
     finally:
         proc.wait()
@@ -85,7 +86,13 @@ def runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
     whole, killed = base / "whole", base / "killed"
     proc = subprocess.run(dem_command(config, whole), cwd=REPO, capture_output=True, text=True, check=False)
     assert proc.returncode == 0, proc.stderr[-3000:]
-    at_kill = kill_mid_chunk(config, killed)
+    # On a loaded machine the chunk can end between the last poll and the kill; that misses the
+    # point of the test (a kill inside the chunk), not a fault of the run: start again, 3 tries.
+    for _ in range(3):
+        shutil.rmtree(killed, ignore_errors=True)
+        at_kill = kill_mid_chunk(config, killed)
+        if len(at_kill["chunks"]) == COMMITTED_BEFORE_KILL:
+            break
     proc = subprocess.run(dem_command(config, killed), cwd=REPO, capture_output=True, text=True, check=False)
     assert proc.returncode == 0, proc.stderr[-3000:]
     return {"config": config, "whole": whole, "killed": killed, "at_kill": at_kill}
@@ -111,7 +118,8 @@ def test_rerun_resumes_from_the_restart_files(runs: dict[str, Any]) -> None:
 def test_resumed_run_gives_the_same_numbers_bitwise(runs: dict[str, Any]) -> None:
     whole, killed = runs["whole"], runs["killed"]
     files = sorted(p.relative_to(whole) for p in [*whole.glob("series/*.txt"), *whole.glob("dumps/*.dump")])
-    assert len(files) == 8
+    # 2 shear + 2 production wall series, their 4 pair-force sums, 2 particle + 2 contact dumps.
+    assert len(files) == 12
     for rel in files:
         # Same seed, same chunk boundaries: LIGGGHTS continues bitwise from its restart files.
         assert (whole / rel).read_bytes() == (killed / rel).read_bytes(), rel
