@@ -29,11 +29,11 @@ import time
 
 import numpy as np
 import xarray as xr
-from scipy.optimize import brentq
 
 from .critical_state import parameter_attrs
 from .errors import ConvergenceError, OutOfRangeError
 from .geometry import PlanarShear
+from .tolerance import wall_root
 from .grid import cumulative_trapezoid, hydrostatic_pressure, uniform_grid
 from .packing import critical_packing
 from .parameters import CosseratParameters
@@ -108,7 +108,7 @@ def _shoot(tau: float, z: np.ndarray, Y: np.ndarray, params: CosseratParameters)
 
 
 def solve(geometry: PlanarShear, params: CosseratParameters, n_grid: int = 400, case: str | None = None,
-          max_iterations: int = 200) -> xr.Dataset:
+          max_iterations: int = 200, tolerance: float | None = None) -> xr.Dataset:
     """Steady velocity-driven planar shear with Cosserat plasticity at the critical state.
 
     Returns the contract's Dataset with u_x, shear_rate, nu (= nu_cs(p)), p, mu and ``spin``
@@ -148,10 +148,8 @@ def solve(geometry: PlanarShear, params: CosseratParameters, n_grid: int = 400, 
             raise ConvergenceError(MODEL, np.nan, "could not bracket the shear stress", case)
     if mismatch(hi) >= 0.0:
         raise ConvergenceError(MODEL, np.nan, "no shear stress meets the top-wall spin condition", case)
-    tau, info = brentq(mismatch, lo, hi, xtol=1e-300, rtol=4 * np.finfo(float).eps,
-                       maxiter=max_iterations, full_output=True, disp=False)
-    residual = abs(mismatch(tau))
-    if not info.converged or residual > 1e-8:
+    tau, converged, residual, iterations = wall_root(mismatch, lo, hi, tolerance, 1e-8, max_iterations)
+    if not converged:
         raise ConvergenceError(MODEL, residual, "couple-stress boundary conditions not met", case)
 
     M = _shoot(tau, z, Y, params)
@@ -175,7 +173,7 @@ def solve(geometry: PlanarShear, params: CosseratParameters, n_grid: int = 400, 
     return build_solution(
         MODEL, geometry, z,
         {"u_x": u, "shear_rate": gammadot, "nu": nu, "p": p, "mu": tau / p, "spin": 0.5 * gammadot * A},
-        converged=True, iterations=int(info.iterations), residual=residual,
+        converged=True, iterations=iterations, residual=residual,
         solve_seconds=time.perf_counter() - t0, n_grid=n_grid, parameters=attrs,
         extra_attrs={"tau": float(tau)},
     )

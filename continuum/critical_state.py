@@ -25,6 +25,7 @@ import numpy as np
 import xarray as xr
 
 from .geometry import PlanarShear
+from .tolerance import event_tolerance
 from .grid import hydrostatic_pressure, uniform_grid
 from .packing import InitialPacking, initial_packing
 from .parameters import CriticalStateParameters
@@ -42,7 +43,7 @@ def parameter_attrs(params: CriticalStateParameters) -> dict[str, float]:
 
 def solve(geometry: PlanarShear, params: CriticalStateParameters, n_grid: int = 200,
           nu_initial: InitialPacking = None, case: str | None = None,
-          max_iterations: int = 20000) -> xr.Dataset:
+          max_iterations: int = 20000, tolerance: float | None = None) -> xr.Dataset:
     """Steady velocity-driven planar shear with local critical-state plasticity.
 
     Args:
@@ -61,7 +62,8 @@ def solve(geometry: PlanarShear, params: CriticalStateParameters, n_grid: int = 
     z = uniform_grid(geometry, n_grid)
     nu0 = initial_packing(z, geometry, params.line, nu_initial)
     p = hydrostatic_pressure(z, nu0, geometry)
-    state = evolve(z, nu0, p, params, None, MODEL, max_events=max_iterations, case=case)
+    state = evolve(z, nu0, p, params, None, MODEL, max_events=max_iterations, case=case,
+                   tol=event_tolerance(tolerance))
     fields = {"nu": state.nu, "p": p, "mu": state.tau / p}
     band_height = -1.0
     if state.band >= 0:

@@ -17,10 +17,10 @@ from __future__ import annotations
 import time
 
 import numpy as np
-from scipy.optimize import brentq
 
 from .errors import ConvergenceError, OutOfRangeError
 from .geometry import PlanarShear
+from .tolerance import wall_root
 from .grid import cumulative_trapezoid
 from .parameters import LocalMuIParameters
 from .solution import build_solution
@@ -71,7 +71,7 @@ def _flowing_layer(tau: float, geometry: PlanarShear, params: LocalMuIParameters
 
 
 def solve(geometry: PlanarShear, params: LocalMuIParameters, n_grid: int = 200, case: str | None = None,
-          max_iterations: int = 200) -> xr.Dataset:
+          max_iterations: int = 200, tolerance: float | None = None) -> xr.Dataset:
     """Steady velocity-driven planar shear with the local mu(I), nu(I) laws.
 
     Args:
@@ -117,12 +117,10 @@ def solve(geometry: PlanarShear, params: LocalMuIParameters, n_grid: int = 200, 
             raise OutOfRangeError(MODEL, f"wall speed {V} m/s needs I above {i_limit:.3g} at the top wall, "
                                   "beyond the range of the nu(I) law", case)
     try:
-        i_top, info = brentq(speed_mismatch, lo, hi, xtol=1e-300, rtol=4 * np.finfo(float).eps,
-                             maxiter=max_iterations, full_output=True, disp=False)
+        i_top, converged, residual, iterations = wall_root(speed_mismatch, lo, hi, tolerance, _RTOL, max_iterations)
     except ValueError as exc:
         raise ConvergenceError(MODEL, np.nan, f"shear-stress root failed: {exc}", case) from exc
-    residual = abs(speed_mismatch(i_top))
-    if not info.converged or residual > _RTOL:
+    if not converged:
         raise ConvergenceError(MODEL, residual, "wall-speed condition not met", case)
 
     tau = float(mu_law.mu(i_top)) * P
@@ -146,7 +144,7 @@ def solve(geometry: PlanarShear, params: LocalMuIParameters, n_grid: int = 200, 
         z_yield = 0.0
     return build_solution(
         MODEL, geometry, z, {"u_x": u, "shear_rate": gd, "nu": nu, "p": p, "mu": tau / p},
-        converged=True, iterations=int(info.iterations), residual=residual,
+        converged=True, iterations=iterations, residual=residual,
         solve_seconds=time.perf_counter() - t0, n_grid=n_grid, parameters=parameters,
         extra_attrs={"tau": tau, "yield_height": z_yield},
     )

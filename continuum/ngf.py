@@ -21,10 +21,10 @@ import time
 import numpy as np
 import xarray as xr
 from scipy.linalg import solve_banded
-from scipy.optimize import brentq
 
 from .errors import ConvergenceError, OutOfRangeError
 from .geometry import PlanarShear
+from .tolerance import wall_root
 from .grid import cumulative_trapezoid, uniform_grid
 from .parameters import NGFParameters
 from .solution import build_solution
@@ -66,7 +66,7 @@ def fluidity_profile(z: np.ndarray, mu: np.ndarray, p: np.ndarray, params: NGFPa
 
 
 def solve(geometry: PlanarShear, params: NGFParameters, n_grid: int = 200, case: str | None = None,
-          max_iterations: int = 200) -> xr.Dataset:
+          max_iterations: int = 200, tolerance: float | None = None) -> xr.Dataset:
     """Steady velocity-driven planar shear with NGF.
 
     Returns the contract's Dataset with u_x, shear_rate, p, mu (and ``fluidity``) on a uniform
@@ -105,13 +105,11 @@ def solve(geometry: PlanarShear, params: NGFParameters, n_grid: int = 200, case:
         if hi > 10.0 * P:
             raise OutOfRangeError(MODEL, f"no shear stress below 10 P_wall drives the wall at {V} m/s", case)
     try:
-        tau, info = brentq(speed_mismatch, lo, hi, xtol=1e-300, rtol=4 * np.finfo(float).eps,
-                           maxiter=max_iterations, full_output=True, disp=False)
+        tau, converged, residual, iterations = wall_root(speed_mismatch, lo, hi, tolerance, _RTOL, max_iterations)
     except ValueError as exc:
         raise ConvergenceError(MODEL, np.nan, f"shear-stress root failed: {exc}", case) from exc
     mu, gammadot = profile(tau)
-    residual = abs(np.trapezoid(gammadot, z) / V - 1.0)
-    if not info.converged or residual > _RTOL or not np.all(np.isfinite(gammadot)):
+    if not converged or not np.all(np.isfinite(gammadot)):
         raise ConvergenceError(MODEL, residual, "wall-speed condition not met", case)
     if np.any(gammadot < 0.0):
         raise ConvergenceError(MODEL, residual, "negative fluidity: grid too coarse for xi", case)
@@ -119,7 +117,7 @@ def solve(geometry: PlanarShear, params: NGFParameters, n_grid: int = 200, case:
     return build_solution(
         MODEL, geometry, z,
         {"u_x": u, "shear_rate": gammadot, "p": p, "mu": mu, "fluidity": gammadot / mu},
-        converged=True, iterations=int(info.iterations), residual=residual,
+        converged=True, iterations=iterations, residual=residual,
         solve_seconds=time.perf_counter() - t0, n_grid=n_grid, parameters=parameters,
         extra_attrs={"tau": float(tau)},
     )

@@ -29,6 +29,7 @@ import xarray as xr
 
 from .critical_state import parameter_attrs
 from .geometry import PlanarShear
+from .tolerance import event_tolerance
 from .grid import hydrostatic_pressure, uniform_grid
 from .packing import InitialPacking, initial_packing
 from .parameters import VolumeAveragedParameters
@@ -61,7 +62,7 @@ def creep_profile(z: np.ndarray, z_star: float, depth: float, length: float,
 
 def solve(geometry: PlanarShear, params: VolumeAveragedParameters, n_grid: int = 200,
           nu_initial: InitialPacking = None, max_step: float = 2e-3,
-          case: str | None = None, max_iterations: int = 20000) -> xr.Dataset:
+          case: str | None = None, max_iterations: int = 20000, tolerance: float | None = None) -> xr.Dataset:
     """Steady velocity-driven planar shear with the volume-averaged model, reached by evolving the
     packing from ``nu_initial`` (callable nu(z) on the initial layer, (z, nu) samples, or None for
     a critical packing at every depth).
@@ -81,7 +82,7 @@ def solve(geometry: PlanarShear, params: VolumeAveragedParameters, n_grid: int =
     nu0 = initial_packing(z0, geometry, cs.line, nu_initial)
     p = hydrostatic_pressure(z0, nu0, geometry)
     state = evolve(z0, nu0, p, cs, exponential_spread(params.l), MODEL, max_step=max_step,
-                   max_events=max_iterations, case=case)
+                   max_events=max_iterations, case=case, tol=event_tolerance(tolerance))
     fields = {"nu": state.nu, "p": p, "mu": state.tau / p}
     final_depth = float(state.z[-1])
     band_height = -1.0

@@ -1,6 +1,10 @@
-"""Accuracy against cost: every model's error against the DEM over a sweep of grid resolution.
+"""Accuracy against cost: every model's error against the DEM over sweeps of grid resolution and
+of solver tolerance.
 
-For each planar scored case and model, the model is solved on grids of ``N_GRIDS`` nodes; each
+For each planar scored case and model, the model is solved on grids of ``N_GRIDS`` nodes (at the
+solver's default tolerance), and on ``TOLERANCE_GRID`` nodes at each of ``TOLERANCES`` (the
+``tolerance`` of ``continuum.solve``: the relative residual of the wall condition, or of the
+yield iteration; empty = the solver's default, machine precision); each
 solution is compared with the replica-mean DEM profile (``velocity_rmse_rel`` and
 ``log_velocity_rmse``, as in ``scores.csv``) and timed (best of ``REPEATS`` solves, so that
 the time is the solver's, not the machine's load). Written to ``cost_accuracy.csv``.
@@ -26,8 +30,11 @@ from pipeline.scores import interior, mean_profile, replica_profiles
 from pipeline.solve_models import case_geometry
 
 N_GRIDS = (16, 32, 64, 128, 256, 512, 1024)
+TOLERANCE_GRID = 256
+TOLERANCES = (1e-1, 1e-2, 1e-4, 1e-8)
 REPEATS = 3
-COLUMNS = ["case", "model", "n_grid", "solve_seconds", "velocity_rmse_rel", "log_velocity_rmse", "error"]
+COLUMNS = ["case", "model", "sweep", "n_grid", "tolerance", "solve_seconds", "velocity_rmse_rel", "log_velocity_rmse",
+           "error"]
 
 
 def sweep(case: str, field_files: list[Path], params: dict, models: list[str]) -> pd.DataFrame:
@@ -40,15 +47,17 @@ def sweep(case: str, field_files: list[Path], params: dict, models: list[str]) -
     dem = Profile(z[mask], dem_u[mask], dem_err[mask])
     creeping = metrics.creeping_mask(dem, geometry.wall_speed)
     rows = []
+    plan = [("grid", n, None) for n in N_GRIDS] + [("tolerance", TOLERANCE_GRID, t) for t in TOLERANCES]
     for model in models:
         parameters = model_parameters(params, model)
-        for n_grid in N_GRIDS:
-            row = {"case": case, "model": model, "n_grid": n_grid, "error": ""}
+        for sweep_name, n_grid, tolerance in plan:
+            row = {"case": case, "model": model, "sweep": sweep_name, "n_grid": n_grid,
+                   "tolerance": np.nan if tolerance is None else tolerance, "error": ""}
             try:
                 best = np.inf
                 for _ in range(REPEATS):
                     t0 = time.perf_counter()
-                    sol = continuum.solve(model, geometry, parameters, n_grid=n_grid, case=case)
+                    sol = continuum.solve(model, geometry, parameters, n_grid=n_grid, case=case, tolerance=tolerance)
                     best = min(best, time.perf_counter() - t0)
             except continuum.ContinuumError as exc:
                 rows.append(row | {"solve_seconds": np.nan, "velocity_rmse_rel": np.nan, "log_velocity_rmse": np.nan,

@@ -106,7 +106,9 @@ def score_section(root: Path, figures: Figures, nonlocal_where: str) -> str:
 
 def pareto_section(root: Path, figures: Figures) -> str:
     scores = pd.read_csv(root / "scores.csv")
-    sweep = pd.read_csv(root / "cost_accuracy.csv")
+    table = pd.read_csv(root / "cost_accuracy.csv")
+    sweep = table[table.sweep == "grid"]
+    tolerance = table[table.sweep == "tolerance"]
     fig, axes = plt.subplots(1, 2, figsize=(11, 4))
     for ax, metric in zip(axes, ("velocity_rmse_rel", "log_velocity_rmse")):
         for (case, model), sub in sweep.groupby(["case", "model"]):
@@ -132,7 +134,12 @@ def pareto_section(root: Path, figures: Figures) -> str:
     return ("<h2>Accuracy against cost</h2>"
             + figures.add("pareto", fig, "Error against the DEM of each model over a sweep of grid resolution, "
                           "against its solve time (best of 3). Points towards the lower left are better.")
-            + f"<p>{html.escape(cheapest_sentence(scores) + missing + failed)}</p>")
+            + f"<p>{html.escape(cheapest_sentence(scores) + missing + failed)}</p>"
+            + "<h3>Solver tolerance</h3><p class='note'>The same errors and solve times on "
+            f"{int(tolerance.n_grid.iloc[0]) if len(tolerance) else 0} nodes, against the solver's tolerance (the "
+            "relative residual of the wall condition or of the yield iteration it stops at).</p>"
+            + table_html(tolerance[["case", "model", "tolerance", "solve_seconds", "velocity_rmse_rel",
+                                    "log_velocity_rmse", "error"]].round(6)))
 
 
 def dem_convergence_section(root: Path, config: dict[str, Any], figures: Figures) -> str:
