@@ -33,7 +33,7 @@ from pipeline.provenance import provenance_attrs
 def predict(model: str, params: dict[str, Any], runs: list[dict[str, Any]], fields: list[xr.Dataset],
             cells_per_d: float = 4.0) -> xr.Dataset:
     """The model's speed at each sheared run's depth (see module docstring)."""
-    depths, speeds, seconds, grids, refused = [], [], [], [], []
+    depths, speeds, seconds, grids, refused, bounded = [], [], [], [], [], []
     parameters = model_parameters(params, model)
     for run, ds in zip(runs, fields, strict=True):
         rod = run["intruder"]
@@ -58,11 +58,15 @@ def predict(model: str, params: dict[str, Any], runs: list[dict[str, Any]], fiel
         speeds.append(result.speed)
         seconds.append(result.solve_seconds)
         grids.append(result.n_grid)
+        bounded.append(bool(result.attrs.get("floor_at_rod", False)))
     order = np.argsort(depths)
     out = xr.Dataset(coords={"depth_over_d": ("depth_over_d", np.asarray(depths)[order],
                                               {"units": "1", "long_name": "rod axis below the top wall, in d"})})
     out["speed"] = ("depth_over_d", np.asarray(speeds, dtype=float)[order],
                     {"units": "m s-1", "long_name": "steady rod speed along +x"})
+    out["speed_is_upper_bound"] = ("depth_over_d", np.asarray(bounded, dtype=np.int8)[order],
+                                   {"units": "1", "long_name": "1 where the NGF fluidity floor reaches the rod: "
+                                    "the speed is an upper bound (continuum/intruder/ngf2d.py FLUIDITY_FLOOR)"})
     out["solve_seconds"] = ("depth_over_d", np.asarray(seconds, dtype=float)[order],
                             {"units": "s", "long_name": "solve time of the scene"})
     out.attrs.update({"model": model, "case": "intruder", "refused": json.dumps(refused),

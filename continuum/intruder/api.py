@@ -48,7 +48,7 @@ def intruder_speed(model: str, geometry: PlanarShear, params: Any, intruder: Rod
             raise TypeError(f"ngf needs NGFParameters, got {type(params).__name__}")
         out = solve_2d(geometry, params, cell_length_x, intruder, grid, case=case, coupling=coupling)
         attrs = {k: out[k] for k in ("tau_top", "vertical_force", "torque") if k in out}
-        attrs.update({k: out[k] for k in ("mu_max", "p_min") if k in out})
+        attrs.update({k: out[k] for k in ("mu_max", "p_min", "fluidity_floor", "floor_at_rod") if k in out})
         attrs["coupling"] = out["coupling"]
         attrs["nx"], attrs["nz"] = out["fields"].attrs["nx"], out["fields"].attrs["nz"]
         return IntruderSpeed(model, out["speed"], out["converged"], out["iterations"], out["residual"],
