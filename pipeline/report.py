@@ -238,8 +238,10 @@ def intruder_section(root: Path, config: dict[str, Any], figures: Figures) -> st
              "<p class='note'>A rod along y (3 d across) pushed along +x by a constant force below its yield force, "
              "held at its depth, in the creeping zone of shear with gravity. Control: the same push with the "
              "top wall at rest. Arrested runs (speed within 2 standard errors of zero, or moved under 0.1 d) "
-             "are drawn at the bottom, not as speeds. Local models predict zero below their yield force; "
-             "Cosserat is not solved in 2D (docs/intruder.md).</p>"]
+             "are drawn at the bottom, not as speeds. Critical state predicts zero below its yield force; local "
+             "mu(I) predicts zero below the layer-sliding force and, above it, the speed of the layer the rod "
+             "slides (rod smeared over the cell); NGF is solved in 2D (hollow markers: upper bound set by the "
+             "fluidity floor); Cosserat is not solved in 2D (docs/intruder.md).</p>"]
     for case in intruder_cases(config):
         runs = [json.loads((root / "dem" / c / r / "run.json").read_text()) for c, r in dem_runs(config) if c == case]
         fig, ax = plt.subplots(figsize=(6.5, 4.5))
@@ -266,6 +268,9 @@ def intruder_section(root: Path, config: dict[str, Any], figures: Figures) -> st
             speeds = np.where(sol.speed.values > 0, sol.speed.values, floor)
             if sol.sizes["depth_over_d"]:
                 ax.plot(sol.depth_over_d.values, speeds, color=color, ls=ls, marker="x", label=model)
+                if "speed_is_upper_bound" in sol and sol.speed_is_upper_bound.values.any():
+                    bound = sol.speed_is_upper_bound.values.astype(bool)
+                    ax.plot(sol.depth_over_d.values[bound], speeds[bound], "o", color=color, mfc="none", ms=9)
             for reason in json.loads(sol.attrs.get("refused", "[]")):
                 refused.append({"model": model, "refused": reason})
             sol.close()
