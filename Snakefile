@@ -62,6 +62,7 @@ def dem_case_config(wildcards):
 rule all:
     input:
         f"{ROOT}/report.html",
+        targets.intruder_plane_paths(config),
 
 
 # ----------------------------------------------------------------------------------- DEM
@@ -129,6 +130,28 @@ rule fields:
         run_dir=targets.run_folder_of_input,
     shell:
         "python -m pipeline.fields --config {input.config} --run-dir {params.run_dir} --out {output} > {log} 2>&1"
+
+
+rule intruder_fields:
+    message:
+        "x-z fields around the rod of {wildcards.case}/{wildcards.run}, in its frame"
+    conda:
+        ENV
+    input:
+        config=CONFIG_JSON,
+        run=f"{ROOT}/dem/{{case}}/{{run}}/run.json",
+        store=f"{ROOT}/dem/{{case}}/{{run}}/dumps.nc",
+    output:
+        nc=f"{ROOT}/fields_xz/{{case}}/{{run}}.nc",
+        vtk=f"{ROOT}/fields_xz/{{case}}/{{run}}.vts",
+    log:
+        f"{ROOT}/logs/fields_xz/{{case}}/{{run}}.log",
+    benchmark:
+        f"{ROOT}/benchmarks/fields_xz/{{case}}/{{run}}.tsv"
+    params:
+        run_dir=targets.run_folder_of_input,
+    shell:
+        "python -m pipeline.intruder_fields --config {input.config} --run-dir {params.run_dir} --out {output.nc} > {log} 2>&1"
 
 
 # ---------------------------------------------------------------------------- calibration

@@ -173,3 +173,8 @@ def intruder_run_jsons(wildcards: Any, config: dict[str, Any]) -> list[str]:
 def all_intruder_run_jsons(config: dict[str, Any]) -> list[str]:
     """run.json of every run of every intruder case."""
     return [str(root(config) / "dem" / c / r / "run.json") for c, r in dem_runs(config) if c in intruder_cases(config)]
+
+
+def intruder_plane_paths(config: dict[str, Any]) -> list[str]:
+    """``fields_xz/{case}/{run}.nc`` (x-z fields in the rod's frame) of every intruder run."""
+    return [str(root(config) / "fields_xz" / c / f"{r}.nc") for c, r in dem_runs(config) if c in intruder_cases(config)]

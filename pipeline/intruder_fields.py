@@ -1,0 +1,127 @@
+"""x-z coarse-grained fields around the intruder, in its frame: ``fields_xz/{case}/{run}.nc`` + ``.vts``.
+
+Every snapshot is shifted along the periodic x so that the rod's centre sits at the middle of the
+cell (its grains, type 4, located by their circular mean over the period), then the flowing grains
+and their contacts are coarse-grained on an x-z grid (integrated over the periodic y, along which
+the rod lies). Velocities stay those of the lab frame; ``u_x_rel`` is u_x minus the rod's mean
+speed over the averaging window (the flow the rod sees). Shifting within a periodic cell does not
+change x averages: the x mean of these fields is the run's profile (``fields/{case}/{run}.nc``),
+which the tests check.
+
+Usage: ``python -m pipeline.intruder_fields --config C --run-dir RESULTS/dem/intruder/RUN
+--out RESULTS/fields_xz/intruder/RUN.nc``
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from pipeline import atomic, field_checks
+from pipeline.coarse_grain import CoarseGrainError, _contact_index, check_contacts_match, coarse_grain, plane_grid
+from pipeline.config import load_config
+from pipeline.dump_store import read_run_json
+from pipeline.dumps import Dump, DumpError
+from pipeline.fields import load_tables, settings, steady_snapshots, write_vtk
+from pipeline.formats import FIELDS_FORMAT_VERSION
+from pipeline.kernels import Kernel
+from pipeline.provenance import provenance_attrs
+
+#: LIGGGHTS atom type of the rod's grains (liggghts_inputs/common_settings.in).
+ROD_TYPE = 4
+
+
+def rod_centres(particles: Dump, snapshots: np.ndarray) -> np.ndarray:
+    """x of the rod's centre (m) in each snapshot: the circular mean of its grains over the period."""
+    x, kind = particles.index("x"), particles.index("type")
+    out = np.empty(snapshots.size)
+    for k, s in enumerate(snapshots):
+        rows = particles.rows(int(s))
+        lo, hi = particles.boxes[s, 0]
+        rod = rows[rows[:, kind] == ROD_TYPE, x]
+        if rod.size == 0:
+            raise CoarseGrainError(f"{', '.join(particles.sources)}: snapshot {s} has no rod grains (type {ROD_TYPE})")
+        angle = 2.0 * math.pi * (rod - lo) / (hi - lo)
+        mean = math.atan2(np.sin(angle).mean(), np.cos(angle).mean()) % (2.0 * math.pi)
+        out[k] = lo + mean / (2.0 * math.pi) * (hi - lo)
+    return out
+
+
+def _shifted(dump: Dump, snapshots: np.ndarray, shifts: np.ndarray, columns: tuple[str, ...]) -> Dump:
+    """The snapshots of ``dump`` with the named x columns moved by each snapshot's shift, wrapped."""
+    part = dump.take(snapshots)
+    data = part.data.copy()
+    per_row = np.repeat(shifts, part.counts)
+    lo = np.repeat(part.boxes[:, 0, 0], part.counts)
+    length = np.repeat(part.boxes[:, 0, 1] - part.boxes[:, 0, 0], part.counts)
+    for name in columns:
+        i = part.index(name)
+        data[:, i] = lo + np.mod(data[:, i] + per_row - lo, length)
+    return replace(part, data=data)
+
+
+def rod_frame_fields(config: dict[str, Any], run_dir: Path) -> xr.Dataset:
+    """The x-z fields of one intruder run in the rod's frame (module docstring)."""
+    run = read_run_json(run_dir)
+    opts = settings(config)
+    particles, contacts = load_tables(run_dir, run)
+    chosen = steady_snapshots(particles, run)
+    if contacts is None:
+        raise CoarseGrainError(f"{run_dir}: the rod-frame fields need the contact dumps (stress)")
+    check_contacts_match(particles, contacts, chosen)
+    walls = field_checks.wall_geometry(particles, chosen)
+    centres = rod_centres(particles, chosen)
+    box = particles.boxes[chosen[0]]
+    lx = float(box[0, 1] - box[0, 0])
+    shifts = (box[0, 0] + 0.5 * lx) - centres
+    moved = _shifted(particles, chosen, shifts, ("x",))
+    contact_rows = _contact_index(particles, contacts, chosen)
+    moved_contacts = _shifted(contacts, contact_rows, shifts, ("x1", "x2", "cx"))
+    d = float(run["d"])
+    kernel = Kernel(opts["kernel"], opts["width_over_d"] * d)
+    spacing = opts["spacing_over_width"] * kernel.width
+    grid = plane_grid(float(box[0, 0]), lx, walls.bottom_mean, walls.top_mean, spacing)
+    result = coarse_grain(moved, moved_contacts, kernel, grid, d=d, rho_s=float(run["density"]),
+                          blocks=int(opts["blocks"]), time_step=float(run["time_step"]))
+    ds = result.dataset
+    rod = run["intruder"]
+    ds["u_x_rel"] = ds["u_x"] - rod["speed"]
+    ds["u_x_rel"].attrs.update({"units": "m s-1", "long_name": "velocity along x relative to the rod's mean speed"})
+    ds.attrs.update(provenance_attrs(config))
+    ds.attrs.update({
+        "format_version": FIELDS_FORMAT_VERSION, "case": run.get("case", ""), "run": run.get("run", ""),
+        "frame": "rod: x shifted per snapshot so the rod's centre is at the middle of the cell",
+        "rod_centre_x": float(box[0, 0] + 0.5 * lx), "rod_depth_over_d": float(rod["depth_over_d"]),
+        "rod_diameter": float(rod["diameter"]), "rod_speed": float(rod["speed"]),
+        "rod_arrested": int(bool(rod["arrested"])), "wall_speed": float(run["wall_speed"]),
+        "z_bottom_wall": walls.bottom_mean, "z_top_wall": walls.top_mean,
+        "cell": np.asarray(run["cell"], dtype=float),
+    })
+    return ds
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description="x-z fields around the intruder, in its frame (NetCDF + VTK).")
+    parser.add_argument("--config", type=Path, required=True)
+    parser.add_argument("--run-dir", type=Path, required=True)
+    parser.add_argument("--out", type=Path, required=True, help="RESULTS/fields_xz/CASE/RUN.nc (a .vts is written beside it)")
+    args = parser.parse_args(argv)
+    try:
+        ds = rod_frame_fields(load_config(args.config), args.run_dir)
+    except (DumpError, CoarseGrainError, ValueError, KeyError) as err:
+        print(f"error: {args.run_dir}: {err}", file=sys.stderr)
+        return 1
+    write_vtk(ds, args.out.with_suffix(".vts"))
+    atomic.write_netcdf(ds, args.out)
+    print(f"{args.out}: {ds.attrs['number_of_snapshots']} snapshots, rod at x = {ds.attrs['rod_centre_x']:.4g} m")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
