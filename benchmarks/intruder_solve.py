@@ -56,7 +56,8 @@ def main() -> None:
         t_scene = res.solve_seconds if coupling == "coupled" else median_time(
             lambda: intruder_speed(model, GEO, PARAMS[model], rod, 16 * D, grid, **kwargs))
         t_1d = median_time(lambda: continuum.solve(model, GEO, PARAMS[model]), 5)
-        size = f"{res.attrs['nx']}x{res.attrs['nz']}" if res.n_grid else "-"
+        size = (f"{res.attrs['nx']}x{res.attrs['nz']}" if "nx" in res.attrs
+                else f"{res.n_grid} (1D)" if res.n_grid else "-")
         label = f"{res.method}/{coupling}" if coupling else res.method
         print(f"{model:<16} {label:<12} {size:>10} {t_scene:>9.3f} {t_1d:>8.4f} {t_scene / t_1d:>7.0f} {res.speed:>10.3e}"
               + (f"  ({res.iterations} Picard iterations)" if coupling == "coupled" else ""))
