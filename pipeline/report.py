@@ -146,8 +146,8 @@ def dem_convergence_section(root: Path, config: dict[str, Any], figures: Figures
     """Field noise of the DEM against core-seconds: averaging time and system size."""
     frames = [pd.read_csv(p) for p in map(Path, convergence_paths(config))]
     table = pd.concat(frames, ignore_index=True)
-    metrics_drawn = ("log_velocity_rmse", "nu_rmse")
-    fig, axes = plt.subplots(1, len(metrics_drawn), figsize=(11, 4))
+    metrics_drawn = ("velocity_rmse_rel", "log_velocity_rmse", "nu_rmse")
+    fig, axes = plt.subplots(1, len(metrics_drawn), figsize=(15, 4))
     for ax, metric in zip(axes, metrics_drawn):
         for (case, study), sub in table[table.metric == metric].groupby(["case", "study"]):
             sub = sub.sort_values("core_seconds")
