@@ -362,6 +362,7 @@ rule report:
         mesh=f"{ROOT}/stability/mesh_convergence.csv",
         failures=f"{ROOT}/stability/failure_catalogue.csv",
         dem_convergence=targets.convergence_paths(config),
+        intruder_fields=targets.intruder_plane_paths(config),
     output:
         html=f"{ROOT}/report.html",
         figures=[

@@ -30,7 +30,7 @@ def run_json_paths(config: dict[str, Any]) -> list[str]:
 
 def report_figures(config: dict[str, Any]) -> list[str]:
     """Names of the figures the report writes for this config."""
-    return (list(REPORT_FIGURES) + (["intruder"] if intruder_cases(config) else [])
+    return (list(REPORT_FIGURES) + (["intruder", "intruder_field"] if intruder_cases(config) else [])
             + (["dem_convergence"] if convergence_cases(config) else []))
 
 
