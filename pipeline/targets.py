@@ -53,15 +53,19 @@ def convergence_paths(config: dict[str, Any]) -> list[str]:
     return [str(root(config) / "dem_convergence" / f"{case}.csv") for case in convergence_cases(config)]
 
 
+def _convergence_runs(config: dict[str, Any], case: str) -> list[str]:
+    """Run ids of a case's replicas and size-study runs, in DEM-run order."""
+    return [run for c, run in dem_runs(config) if c == case]
+
+
 def convergence_run_jsons(wildcards: Any, config: dict[str, Any]) -> list[str]:
     """run.json of the case's replicas and size-study runs, in :func:`convergence_fields` order."""
-    return [str(Path(f.replace(f"{root(config)}/fields/", f"{root(config)}/dem/", 1)).with_suffix("") / "run.json")
-            for f in convergence_fields(wildcards, config)]
+    return [str(root(config) / "dem" / wildcards.case / run / "run.json") for run in _convergence_runs(config, wildcards.case)]
 
 
 def convergence_fields(wildcards: Any, config: dict[str, Any]) -> list[str]:
     """Fields of the case's replicas and size-study runs."""
-    return fields_paths(config, wildcards.case, size_study=True)
+    return [str(root(config) / "fields" / wildcards.case / f"{run}.nc") for run in _convergence_runs(config, wildcards.case)]
 
 
 def convergence_stores(wildcards: Any, config: dict[str, Any]) -> list[str]:
