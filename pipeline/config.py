@@ -65,7 +65,8 @@ def _check_consistency(config: dict[str, Any], source: str) -> None:
 
 def mean_grain_volume(d: float, polydispersity: float, n_sizes: int) -> float:
     """Number-mean grain volume (m3) of the discrete size distribution."""
-    return float(sum(math.pi * s**3 / 6.0 for s in size_classes(d, polydispersity, n_sizes)) / n_sizes)
+    sizes = size_classes(d, polydispersity, n_sizes)
+    return float(sum(math.pi * s**3 / 6.0 for s in sizes) / len(sizes))
 
 
 def working_pressure(config: dict[str, Any], case_name: str) -> float:

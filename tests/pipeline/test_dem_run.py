@@ -18,7 +18,6 @@ import pytest
 
 from pipeline.config import dem_runs, load_config, run_state
 from pipeline.dem_run import CONTACT_COLUMNS
-from pipeline.steady_state import drift_test
 from pipeline.wall_series import PAIRSUM_COLUMNS, read_wall_series
 
 pytestmark = pytest.mark.liggghts
