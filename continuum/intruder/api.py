@@ -71,7 +71,10 @@ def intruder_speed(model: str, geometry: PlanarShear, params: Any, intruder: Rod
             speed, tau_top = layer_sliding_speed(planar, params.mu_i, geometry, intruder, cell_length_x, case)
             attrs = {"yield_force_bearing": yf.bearing, "yield_force_layer": yf.layer_sliding,
                      "tau_top": tau_top, "tau_top_without_rod": float(planar.attrs["tau"])}
-            method = "layer_sliding" if intruder.force_per_length >= yf.layer_sliding else "yield_check"
+            if intruder.force_per_length >= yf.layer_sliding:
+                method = "layer_sliding"
+            else:
+                method = "1d_flow" if speed > 0.0 else "yield_check"  # carried by the 1D flow, or at rest
             return IntruderSpeed(model, speed, True, 0, 0.0, time.perf_counter() - t0, int(planar.sizes["z"]), method,
                                  yield_force=yf.value,
                                  planar_solve_seconds=planar_seconds, attrs=attrs)
