@@ -17,13 +17,15 @@ from scipy.optimize import brentq
 EVENT_TOLERANCE = 1e-12
 
 
-def event_tolerance(tolerance: float | None) -> float:
-    """Bound on |ln alpha| that ends the yield-event iteration."""
-    if tolerance is None:
-        return EVENT_TOLERANCE
+def _checked(tolerance: float) -> float:
     if not tolerance > 0.0:
         raise ValueError(f"tolerance must be positive, got {tolerance!r}")
     return float(tolerance)
+
+
+def event_tolerance(tolerance: float | None) -> float:
+    """Bound on |ln alpha| that ends the yield-event iteration."""
+    return EVENT_TOLERANCE if tolerance is None else _checked(tolerance)
 
 
 def wall_root(mismatch: Callable[[float], float], lo: float, hi: float, tolerance: float | None,
@@ -38,7 +40,7 @@ def wall_root(mismatch: Callable[[float], float], lo: float, hi: float, toleranc
     Returns (root, converged, residual, Brent iterations in all).
     """
     floor = 4.0 * np.finfo(float).eps
-    target = default_residual if tolerance is None else event_tolerance(tolerance)
+    target = default_residual if tolerance is None else _checked(tolerance)
     rtol = floor if tolerance is None else 1e-2
     iterations = 0
     while True:

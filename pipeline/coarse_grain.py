@@ -148,7 +148,8 @@ def snapshot(particles: Dump, contacts: Dump | None, s: int, body_types: Sequenc
     return data
 
 
-def _contact_index(particles: Dump, contacts: Dump, chosen: np.ndarray) -> np.ndarray:
+def contact_index(particles: Dump, contacts: Dump, chosen: np.ndarray) -> np.ndarray:
+    """Indices of the contact snapshots at the timesteps of the chosen particle snapshots."""
     where = {int(t): k for k, t in enumerate(contacts.timesteps)}
     missing = [int(t) for t in particles.timesteps[chosen] if int(t) not in where]
     if missing:
@@ -160,7 +161,7 @@ def check_contacts_match(particles: Dump, contacts: Dump, chosen: np.ndarray) ->
     """Refuse a contact dump that is not of the particle dump's run: a contact snapshot for every
     chosen particle snapshot, and both grains of every contact present in it (else the stress
     would silently miss or misplace contacts). Raises :class:`CoarseGrainError` naming the files."""
-    where = _contact_index(particles, contacts, chosen)
+    where = contact_index(particles, contacts, chosen)
     if "id1" not in contacts.columns or "id" not in particles.columns:
         return
     for s, c in zip(chosen, where):
@@ -216,7 +217,7 @@ def batch(particles: Dump, contacts: Dump | None, chosen: np.ndarray,
     lengths = boxes[:, :, 1] - boxes[:, :, 0]
     periodic = tuple(flag.startswith("p") for flag in (particles.boundary + ("pp", "pp", "ff"))[:3])
     if contacts is not None:
-        crow, csid = _rows(contacts, _contact_index(particles, contacts, chosen))
+        crow, csid = _rows(contacts, contact_index(particles, contacts, chosen))
         cc = contacts.columns
         r1 = _columns(crow, cc, ("x1", "y1", "z1"))
         r2 = _columns(crow, cc, ("x2", "y2", "z2"))

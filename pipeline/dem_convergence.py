@@ -35,7 +35,7 @@ from pipeline.coarse_grain import block_average
 from pipeline.config import load_config, size_study_cell
 from pipeline.fields import run_fields, settings
 from pipeline.formats import open_fields
-from pipeline.scores import dem_noise, interior, metric_table
+from pipeline.scores import align_replicas, dem_noise, interior, metric_table
 
 #: Shares of the production snapshots in the averaging-time sweep.
 AVERAGING_FRACTIONS = (0.125, 0.25, 0.5, 1.0)
@@ -60,7 +60,7 @@ def production_strain(run: dict[str, Any]) -> float:
 
 def noise_rows(reps: list[xr.Dataset]) -> dict[str, float]:
     """Each noise metric between the replicas (interpolated onto the first one's z)."""
-    aligned = [reps[0]] + [ds.interp(z=reps[0].z) for ds in reps[1:]]
+    aligned = align_replicas(reps)
     mask = interior(aligned[0])
     table = metric_table(aligned[0].z.values[mask], float(aligned[0].attrs["wall_speed"]))
     out = {}

@@ -470,16 +470,15 @@ class PlanarShearRun:
             self._run_chunk("production", index, plan)
         return self._record(plan)
 
-    def pair_force_sum(self) -> dict[str, float] | None:
-        """Mean x sum of all contact forces over production (N), relative to the mean top-wall
-        shear force; None when a production chunk has no pair-sum file (runs made before it
-        was recorded, the intruder's template)."""
+    def pair_force_sum(self, shear: float) -> dict[str, float] | None:
+        """Mean x sum of all contact forces over production (N), relative to ``shear``, the mean
+        top-wall shear force (N); None when a production chunk has no pair-sum file (runs made
+        before it was recorded, the intruder's template)."""
         production = [c for c in self.state["chunks"] if c["kind"] == "production"]
         files = [self.run_dir / "series" / f"pairsum_{c['stage']}.txt" for c in production]
         if not production or not all(f.is_file() for f in files):
             return None
         sums = pd.concat([read_wall_series(f, PAIRSUM_COLUMNS) for f in files], ignore_index=True)
-        shear = float(self.series(("production",))["ftop_x"].mean())
         mean_x = float(sums["fsum_x"].mean())
         return {"mean_x": mean_x, "mean_y": float(sums["fsum_y"].mean()),
                 "over_top_shear_force": mean_x / abs(shear) if shear else float("nan")}
@@ -527,7 +526,7 @@ class PlanarShearRun:
             "steady_state_test": self.state["steady"],
             "production_window": [production[0]["t_start"], production[-1]["t_end"]],
             "production_drift": {"force": prod_force.as_dict(), "height": prod_height.as_dict()},
-            "pair_force_sum": self.pair_force_sum(),
+            "pair_force_sum": self.pair_force_sum(float(prod_series["ftop_x"].mean())),
             "max_overlap_over_d": float(self.series()["max_overlap"].max() / self.mat["d"]),
             "particle_dumps": [c["dumps"][0] for c in production],
             "contact_dumps": [c["dumps"][1] for c in production],

@@ -21,7 +21,7 @@ import os
 import re
 from collections.abc import Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -105,6 +105,20 @@ class Dump:
         rows = np.concatenate([np.arange(self.offsets[s], self.offsets[s + 1]) for s in snapshots]) if snapshots.size else np.zeros(0, np.int64)
         return Dump(self.kind, self.columns, self.timesteps[snapshots], self.boxes[snapshots], self.boundary,
                     offsets, self.data[rows], self.sources)
+
+
+def shift_periodic_x(dump: Dump, snapshots: np.ndarray, shifts: np.ndarray, columns: Sequence[str]) -> Dump:
+    """The given snapshots of ``dump``, with the named x columns moved by each snapshot's shift (m)
+    and wrapped back into the periodic box."""
+    part = dump.take(snapshots)
+    data = part.data.copy()
+    per_row = np.repeat(np.asarray(shifts, dtype=float), part.counts)
+    lo = np.repeat(part.boxes[:, 0, 0], part.counts)
+    length = np.repeat(part.boxes[:, 0, 1] - part.boxes[:, 0, 0], part.counts)
+    for name in columns:
+        i = part.index(name)
+        data[:, i] = lo + np.mod(data[:, i] + per_row - lo, length)
+    return replace(part, data=data)
 
 
 @dataclass

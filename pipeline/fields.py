@@ -22,6 +22,7 @@ import argparse
 import json
 import math
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -30,9 +31,10 @@ import pandas as pd
 import xarray as xr
 
 from pipeline import field_checks
-from pipeline.coarse_grain import CoarseGrainError, Result, check_contacts_match, coarse_grain, plane_grid, profile_grid, write_netcdf
+from pipeline.coarse_grain import (CoarseGrainError, Result, check_contacts_match, coarse_grain, contact_index, plane_grid,
+                                   profile_grid, write_netcdf)
 from pipeline.dump_store import STORE_NAME, parse_run, read_run_json, read_store
-from pipeline.dumps import Dump, DumpError
+from pipeline.dumps import Dump, DumpError, shift_periodic_x
 from pipeline.kernels import Kernel
 from pipeline.formats import FIELDS_FORMAT_VERSION
 from pipeline.provenance import provenance_attrs
@@ -107,9 +109,14 @@ def production_series(run_dir: Path) -> pd.DataFrame:
 
 
 def run_fields(config: dict[str, Any], run_dir: Path, plane: bool = False,
-               width: float | None = None, checks: bool = True) -> tuple[Result, dict[str, Any]]:
+               width: float | None = None, checks: bool = True,
+               x_shift: Callable[[Dump, np.ndarray], np.ndarray] | None = None) -> tuple[Result, dict[str, Any]]:
     """Coarse-grain one run; return the result (dataset with attributes) and the checks
-    (none with ``checks=False``, for studies that only need the fields)."""
+    (none with ``checks=False``, for studies that only need the fields).
+
+    ``x_shift(particles, snapshots)`` gives a shift along the periodic x (m) per steady snapshot:
+    the snapshots are moved by it before averaging (a moving frame, e.g. an intruder's).
+    """
     run_dir = Path(run_dir)
     run = read_run_json(run_dir)
     opts = settings(config)
@@ -117,6 +124,12 @@ def run_fields(config: dict[str, Any], run_dir: Path, plane: bool = False,
     chosen = steady_snapshots(particles, run)
     if contacts is not None:
         check_contacts_match(particles, contacts, chosen)
+    if x_shift is not None:
+        shifts = x_shift(particles, chosen)
+        if contacts is not None:
+            contacts = shift_periodic_x(contacts, contact_index(particles, contacts, chosen), shifts, ("x1", "x2", "cx"))
+        particles = shift_periodic_x(particles, chosen, shifts, ("x",))
+        chosen = np.arange(len(particles))
     d = float(run["d"])
     kernel = Kernel(opts["kernel"], width if width is not None else opts["width_over_d"] * d)
     walls = field_checks.wall_geometry(particles, chosen)

@@ -16,22 +16,18 @@ from __future__ import annotations
 import argparse
 import math
 import sys
-from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import xarray as xr
 
-from pipeline import atomic, field_checks
-from pipeline.coarse_grain import CoarseGrainError, _contact_index, check_contacts_match, coarse_grain, plane_grid
+from pipeline import atomic
+from pipeline.coarse_grain import CoarseGrainError
 from pipeline.config import load_config
 from pipeline.dump_store import read_run_json
 from pipeline.dumps import Dump, DumpError
-from pipeline.fields import load_tables, settings, steady_snapshots, write_vtk
-from pipeline.formats import FIELDS_FORMAT_VERSION
-from pipeline.kernels import Kernel
-from pipeline.provenance import provenance_attrs
+from pipeline.fields import run_fields, write_vtk
 
 #: LIGGGHTS atom type of the rod's grains (liggghts_inputs/common_settings.in).
 ROD_TYPE = 4
@@ -53,55 +49,27 @@ def rod_centres(particles: Dump, snapshots: np.ndarray) -> np.ndarray:
     return out
 
 
-def _shifted(dump: Dump, snapshots: np.ndarray, shifts: np.ndarray, columns: tuple[str, ...]) -> Dump:
-    """The snapshots of ``dump`` with the named x columns moved by each snapshot's shift, wrapped."""
-    part = dump.take(snapshots)
-    data = part.data.copy()
-    per_row = np.repeat(shifts, part.counts)
-    lo = np.repeat(part.boxes[:, 0, 0], part.counts)
-    length = np.repeat(part.boxes[:, 0, 1] - part.boxes[:, 0, 0], part.counts)
-    for name in columns:
-        i = part.index(name)
-        data[:, i] = lo + np.mod(data[:, i] + per_row - lo, length)
-    return replace(part, data=data)
+def centre_rod(particles: Dump, snapshots: np.ndarray) -> np.ndarray:
+    """Shift (m) per snapshot that brings the rod's centre to the middle of the periodic cell."""
+    box = particles.boxes[snapshots]
+    return box[:, 0, 0] + 0.5 * (box[:, 0, 1] - box[:, 0, 0]) - rod_centres(particles, snapshots)
 
 
 def rod_frame_fields(config: dict[str, Any], run_dir: Path) -> xr.Dataset:
     """The x-z fields of one intruder run in the rod's frame (module docstring)."""
-    run = read_run_json(run_dir)
-    opts = settings(config)
-    particles, contacts = load_tables(run_dir, run)
-    chosen = steady_snapshots(particles, run)
-    if contacts is None:
-        raise CoarseGrainError(f"{run_dir}: the rod-frame fields need the contact dumps (stress)")
-    check_contacts_match(particles, contacts, chosen)
-    walls = field_checks.wall_geometry(particles, chosen)
-    centres = rod_centres(particles, chosen)
-    box = particles.boxes[chosen[0]]
-    lx = float(box[0, 1] - box[0, 0])
-    shifts = (box[0, 0] + 0.5 * lx) - centres
-    moved = _shifted(particles, chosen, shifts, ("x",))
-    contact_rows = _contact_index(particles, contacts, chosen)
-    moved_contacts = _shifted(contacts, contact_rows, shifts, ("x1", "x2", "cx"))
-    d = float(run["d"])
-    kernel = Kernel(opts["kernel"], opts["width_over_d"] * d)
-    spacing = opts["spacing_over_width"] * kernel.width
-    grid = plane_grid(float(box[0, 0]), lx, walls.bottom_mean, walls.top_mean, spacing)
-    result = coarse_grain(moved, moved_contacts, kernel, grid, d=d, rho_s=float(run["density"]),
-                          blocks=int(opts["blocks"]), time_step=float(run["time_step"]))
+    result, _ = run_fields(config, run_dir, plane=True, checks=False, x_shift=centre_rod)
     ds = result.dataset
-    rod = run["intruder"]
+    if not ds.attrs["contacts_included"]:
+        raise CoarseGrainError(f"{run_dir}: the rod-frame fields need the contact dumps (stress)")
+    rod = read_run_json(Path(run_dir))["intruder"]
     ds["u_x_rel"] = ds["u_x"] - rod["speed"]
     ds["u_x_rel"].attrs.update({"units": "m s-1", "long_name": "velocity along x relative to the rod's mean speed"})
-    ds.attrs.update(provenance_attrs(config))
+    lo, lx = float(ds.x.values[0]) - 0.5 * float(ds.x.values[1] - ds.x.values[0]), float(ds.attrs["cell"][0])
     ds.attrs.update({
-        "format_version": FIELDS_FORMAT_VERSION, "case": run.get("case", ""), "run": run.get("run", ""),
         "frame": "rod: x shifted per snapshot so the rod's centre is at the middle of the cell",
-        "rod_centre_x": float(box[0, 0] + 0.5 * lx), "rod_depth_over_d": float(rod["depth_over_d"]),
+        "rod_centre_x": lo + 0.5 * lx, "rod_depth_over_d": float(rod["depth_over_d"]),
         "rod_diameter": float(rod["diameter"]), "rod_speed": float(rod["speed"]),
-        "rod_arrested": int(bool(rod["arrested"])), "wall_speed": float(run["wall_speed"]),
-        "z_bottom_wall": walls.bottom_mean, "z_top_wall": walls.top_mean,
-        "cell": np.asarray(run["cell"], dtype=float),
+        "rod_arrested": int(bool(rod["arrested"])),
     })
     return ds
 

@@ -35,9 +35,12 @@ def replica_profiles(files: list[Path]) -> list[xr.Dataset]:
     """The replicas' fields, each interpolated onto the first replica's z."""
     if not files:
         raise FileNotFoundError("no DEM fields files to score against")
-    sets = [xr.open_dataset(f) for f in files]
-    z = sets[0].z
-    return [sets[0]] + [ds.interp(z=z) for ds in sets[1:]]
+    return align_replicas([xr.open_dataset(f) for f in files])
+
+
+def align_replicas(sets: list[xr.Dataset]) -> list[xr.Dataset]:
+    """Replica profiles, each interpolated onto the first one's z (their walls differ slightly)."""
+    return [sets[0]] + [ds.interp(z=sets[0].z) for ds in sets[1:]]
 
 
 def interior(ds: xr.Dataset) -> np.ndarray:
