@@ -21,11 +21,11 @@ import json
 import time
 from pathlib import Path
 
-from pipeline import fields
-from pipeline.coarse_grain import coarse_grain, plane_grid, profile_grid
-from pipeline.dump_store import parse_run
-from pipeline.field_checks import wall_geometry
-from pipeline.kernels import Kernel
+from pipeline.coarse_graining import fields
+from pipeline.coarse_graining.coarse_grain import coarse_grain, plane_grid, profile_grid
+from pipeline.dumps.store import parse_run
+from pipeline.coarse_graining.field_checks import wall_geometry
+from pipeline.coarse_graining.kernels import Kernel
 
 
 def best(func, repeat: int) -> tuple[float, object]:

@@ -1,6 +1,6 @@
 """Pipeline overhead of a DEM run: the pipeline's run against bare ``liggghts -in`` on the same inputs.
 
-The pipeline run (``pipeline.dem_run``: rendering, log and series checks, steady-state tests,
+The pipeline run (``pipeline.dem.planar_run``: rendering, log and series checks, steady-state tests,
 restart bookkeeping) is timed from outside. Then every stage input it rendered (``in.fill``,
 ``in.shear_000``, ...) is replayed in a copy of the run folder with the bare binary, in the same
 order, renaming each restart as the pipeline does. Both do exactly the same LIGGGHTS steps; the
@@ -22,13 +22,13 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
-from pipeline.dem_run import _mpi_environment  # noqa: E402
+from pipeline.dem.planar_run import _mpi_environment  # noqa: E402
 
 
 def pipeline_run(config: str, case: str, run: str, out: Path) -> float:
     start = time.perf_counter()
     subprocess.run(
-        [sys.executable, "-m", "pipeline.dem_run", "--config", config, "--case", case, "--run", run, "--out", str(out)],
+        [sys.executable, "-m", "pipeline.dem", "--config", config, "--case", case, "--run", run, "--out", str(out)],
         cwd=REPO, check=True, capture_output=True,
     )
     return time.perf_counter() - start

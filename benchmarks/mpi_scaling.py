@@ -1,7 +1,7 @@
 """MPI speed-up of the DEM stage: the same shear chunk of a >= 10k-grain cell on 1 and on 2 ranks.
 
 The cell is a sheared steady state of the pipeline itself, tiled: the last restart file of a reduced
-rheometer run (config/ci.yaml, I = 0.2, made here with ``pipeline.dem_run`` unless ``--source``
+rheometer run (config/ci.yaml, I = 0.2, made here with ``pipeline.dem.planar_run`` unless ``--source``
 names one) is read and ``replicate``-d NX x NY times in the periodic plane (one serial LIGGGHTS
 call writing a new restart), so the grains, the rough walls, the contact law, the time step and
 the chunk input are exactly the pipeline's (``liggghts_inputs/planar_shear/shear.in``). The same rendered input is then run with
@@ -31,7 +31,7 @@ import yaml
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
-from pipeline.dem_run import _mpi_environment  # noqa: E402
+from pipeline.dem.planar_run import _mpi_environment  # noqa: E402
 
 RUN = "I0.2-P200-r1"
 _LOOP = re.compile(r"Loop time of (\S+) on (\d+) procs for (\d+) steps with (\d+) atoms")
@@ -47,7 +47,7 @@ def make_source(work: Path) -> Path:
     path = work / "source.yaml"
     path.write_text(yaml.safe_dump(config))
     out = work / "source"
-    subprocess.run([sys.executable, "-m", "pipeline.dem_run", "--config", str(path), "--case", "rheometer",
+    subprocess.run([sys.executable, "-m", "pipeline.dem", "--config", str(path), "--case", "rheometer",
                     "--run", RUN, "--out", str(out), "--mpi-launcher", "none"], cwd=REPO, check=True)
     return out
 

@@ -2,7 +2,7 @@
 
 Writes (once) a LIGGGHTS-like ``dump custom`` file with the columns of the pipeline's particle
 dumps (``id type x y z vx vy vz omegax omegay omegaz radius mass fx fy fz``, 6 significant
-digits as LIGGGHTS prints them) to /tmp, then times :func:`pipeline.dumps.read_dump` (best of
+digits as LIGGGHTS prints them) to /tmp, then times :func:`pipeline.dumps.reader.read_dump` (best of
 ``--repeat``) with one thread and with the default thread count, against pandas' C parser on
 the same bytes. Goal: at least 1.5 million rows/s (OVITO's LAMMPS-dump reader on 2 cores).
 
@@ -17,7 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
-from pipeline import dumps, fastparse
+from pipeline.dumps import reader as dumps
+from pipeline.dumps import fastparse
 
 HEADER = "id type x y z vx vy vz omegax omegay omegaz radius mass fx fy fz"
 
@@ -63,7 +64,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"file {path}: {rows} rows x 16 columns, {size / 1e6:.1f} MB; compiled parser: {fastparse.compiled()}")
     for threads in (1, dumps.default_threads()):
         t = best_time(lambda: dumps.read_dump(path, threads=threads), args.repeat)
-        print(f"pipeline.dumps.read_dump, {threads} thread(s): {rows / t / 1e6:.2f} million rows/s "
+        print(f"pipeline.dumps.reader.read_dump, {threads} thread(s): {rows / t / 1e6:.2f} million rows/s "
               f"({size / t / 1e6:.0f} MB/s, {t:.3f} s)")
     if not args.no_pandas:
         import pandas as pd

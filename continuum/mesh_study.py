@@ -22,7 +22,7 @@ Definitions (SI units; z up from the fixed bottom wall, u_x >= 0 along the top w
   ``CONVERGED_RTOL`` (1 %) in band width (relative) and in u_x (RMS relative to V).
 
 A solve that raises a ``ContinuumError`` is kept as a row with its message in ``error`` and NaN
-measures: where a solver fails is itself a result (see pipeline/failure_catalogue.py).
+measures: where a solver fails is itself a result (see pipeline/stability/failure_catalogue.py).
 """
 from __future__ import annotations
 

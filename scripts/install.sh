@@ -10,7 +10,7 @@ need_apt=()
 command -v liggghts >/dev/null 2>&1 || need_apt+=(liggghts)
 command -v mpirun >/dev/null 2>&1 || need_apt+=(openmpi-bin)
 command -v python3 >/dev/null 2>&1 || need_apt+=(python3)
-# A C compiler builds the fast dump parser (pipeline/fastparse.py) on first use.
+# A C compiler builds the fast dump parser (pipeline/dumps/fastparse.py) on first use.
 command -v cc >/dev/null 2>&1 || need_apt+=(gcc libc6-dev)
 if command -v python3 >/dev/null 2>&1 && ! python3 -c "import venv, ensurepip" >/dev/null 2>&1; then
   need_apt+=(python3-venv)

@@ -19,7 +19,7 @@ import xarray as xr
 
 from continuum.mesh_study import band_width, mesh_study, study_model, weak_plane_packing
 from continuum.parameters import CosseratParameters, VolumeAveragedParameters
-from pipeline import mesh_convergence
+from pipeline.stability import mesh_convergence
 
 from .conftest import D, shear_gravity
 

@@ -24,11 +24,16 @@ import pytest
 import xarray as xr
 import yaml
 
-from pipeline import dem_run, dump_store, fields, formats, solve_models
-from pipeline.config import ConfigError, load_config
-from pipeline.liggghts_log import DEMRunError
-from tests.pipeline.test_failure_catalogue import reference_params
-from tests.pipeline.test_fields import write_static_bed
+from pipeline.dem import cli as dem_command
+from pipeline.dem import planar_run as dem_run
+from pipeline.dumps import store as dump_store
+from pipeline.coarse_graining import fields
+from pipeline.common import formats
+from pipeline.models import planar as solve_models
+from pipeline.common.config import ConfigError, load_config
+from pipeline.dem.liggghts_log import DEMRunError
+from tests.pipeline.stability.test_failure_catalogue import reference_params
+from tests.pipeline.coarse_graining.test_fields import write_static_bed
 
 REPO = Path(__file__).resolve().parents[2]
 CI = REPO / "config" / "ci.yaml"
@@ -298,7 +303,7 @@ def test_bad_config_stops_the_dem_cli_cleanly(tmp_path: Path) -> None:
     path = tmp_path / "bad.yaml"
     path.write_text(yaml.safe_dump(config))
     out = tmp_path / "run"
-    proc = subprocess.run([sys.executable, "-m", "pipeline.dem_run", "--config", str(path), "--case", "rheometer",
+    proc = subprocess.run([sys.executable, "-m", "pipeline.dem", "--config", str(path), "--case", "rheometer",
                            "--run", "I0.2-P200-r1", "--out", str(out)], cwd=REPO, capture_output=True, text=True)
     assert proc.returncode == 1
     assert "material.max_overlap: '0.01' is not of type 'number'" in proc.stderr
@@ -373,7 +378,7 @@ def test_missing_liggghts_binary_is_named(tmp_path: Path) -> None:
     path = tmp_path / "c.yaml"
     path.write_text(yaml.safe_dump(config))
     out = tmp_path / "run"
-    proc = subprocess.run([sys.executable, "-m", "pipeline.dem_run", *dem_cli(path, out)], cwd=REPO,
+    proc = subprocess.run([sys.executable, "-m", "pipeline.dem", *dem_cli(path, out)], cwd=REPO,
                           capture_output=True, text=True)
     assert proc.returncode == 1
     assert "error: LIGGGHTS executable 'liggghts-not-installed' not found on PATH" in proc.stderr
@@ -384,7 +389,7 @@ def test_liggghts_exiting_non_zero_is_named_with_stage_and_log(tmp_path: Path, f
     fake_liggghts(FAKE_EXIT.format(code=1))
     out = tmp_path / "run"
     with pytest.raises(DEMRunError) as info:
-        dem_run.main(dem_cli(CI, out))
+        dem_command.main(dem_cli(CI, out))
     message = str(info.value)
     assert message.startswith("DEM run rheometer/I0.2-P200-r1 stage fill: LIGGGHTS exited with code 1")
     assert "logs/fill.log" in message and "Segmentation fault" in message
@@ -395,7 +400,7 @@ def test_lost_grains_are_reported_as_such(tmp_path: Path, fake_liggghts) -> None
     fake_liggghts(FAKE_LOST)
     out = tmp_path / "run"
     with pytest.raises(DEMRunError) as info:
-        dem_run.main(dem_cli(CI, out))
+        dem_command.main(dem_cli(CI, out))
     assert "stage fill: LIGGGHTS reported lost grains: ERROR: Lost atoms: original 560 current 559" in str(info.value)
     assert "logs/fill.log" in str(info.value)
     assert_no_stage_committed(out)

@@ -1,0 +1,323 @@
+"""Calibrate the continuum models from DEM fields: ``calibration/params.json``.
+
+Local laws come from the rheometer only: each rheometer run gives one homogeneous state (bulk
+averages at least ``bulk_margin_over_d`` d from each wall) of I, mu, nu and p with standard
+errors; mu(I), nu(I) and the critical-state family are fitted to those states
+(:mod:`continuum.calibration`). The non-local parameters (NGF A, the Cosserat and the
+volume-averaged lengths l) are fitted, with the local laws fixed, on one calibration run named in
+the config (``calibration.nonlocal_case`` / ``nonlocal_run``), by least squares of log10 u_x in
+its creeping zone; ``params.json`` records where each value was fitted so the report can say which
+scores are not independent of the calibration.
+
+Usage: ``python -m pipeline.calibration.calibrate --config CONFIG --rheometer F1.nc F2.nc ... --nonlocal FIELDS.nc --out params.json``
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from continuum import calibration as fits
+from continuum.geometry import PlanarShear
+from continuum.parameters import (
+    CosseratParameters,
+    CriticalStateParameters,
+    LocalMuIParameters,
+    NGFParameters,
+    VolumeAveragedParameters,
+)
+from pipeline.common.config import load_config
+from pipeline.common.formats import open_fields
+from pipeline.common.provenance import provenance
+
+CALIBRATION_DEFAULTS: dict[str, Any] = {
+    "nonlocal_case": "shear_gravity",
+    "nonlocal_run": "r1",
+    "bulk_margin_over_d": 3.0,
+    # Creeping points below this fraction of the wall speed are left out of the log fit: the
+    # DEM resolves them only above its noise (checked against the point's own error too).
+    "min_speed_over_wall_speed": 1e-5,
+    "critical_state_n": 1.05,
+    "cosserat_beta": 1.0,
+    "cosserat_wall_spin_ratio": 0.5,
+}
+
+
+#: Slope d nu_cs / d ln p used when the DEM resolves none (rigid grains): the order of the
+#: relative grain compliance (mean overlap / d ~ 1e-3).
+KAPPA_FLOOR = 1e-3
+
+
+class CalibrationError(ValueError):
+    """The fields cannot calibrate the models; the message names the file and the cause."""
+
+
+def calibration_settings(config: dict[str, Any]) -> dict[str, Any]:
+    """The config's ``calibration`` section over :data:`CALIBRATION_DEFAULTS`."""
+    return CALIBRATION_DEFAULTS | (config.get("calibration") or {})
+
+
+def bulk_state(path: Path, margin_over_d: float) -> dict[str, float]:
+    """Bulk averages (and their standard errors) of one rheometer fields file.
+
+    The bulk is the part of the profile at least ``margin_over_d`` d from both walls. The error of
+    a bulk average is the mean of the pointwise standard errors: neighbouring points are
+    correlated through the kernel and through the time blocks, so averaging does not reduce it.
+    """
+    ds = open_fields(path)
+    d = float(ds.attrs["d"])
+    z0, z1 = float(ds.attrs["z_bottom_wall"]), float(ds.attrs["z_top_wall"])
+    bulk = ds.where((ds.z >= z0 + margin_over_d * d) & (ds.z <= z1 - margin_over_d * d), drop=True)
+    if bulk.sizes["z"] < 3:
+        raise CalibrationError(
+            f"{path}: fewer than 3 profile points lie {margin_over_d:g} d from both walls "
+            f"(walls at {z0:.4g} and {z1:.4g} m, d = {d:.3g} m): the rheometer cell is too thin"
+        )
+    out: dict[str, float] = {"file": str(path), "wall_pressure": float(ds.attrs["wall_pressure"])}
+    for name in ("I", "mu", "nu", "p", "shear_rate"):
+        values = bulk[name].values
+        if not np.all(np.isfinite(values)):
+            raise CalibrationError(f"{path}: non-finite {name} in the bulk")
+        out[name] = float(values.mean())
+        out[f"{name}_err"] = float(bulk[f"{name}_err"].values.mean())
+    # Inhomogeneity of the bulk (shear banding) shows as a spread larger than the errors.
+    out["mu_spread"] = float(bulk["mu"].values.std())
+    out["I_spread"] = float(bulk["I"].values.std())
+    ds.close()
+    return out
+
+
+def _entry(value: float, error: float, fitted_on: str, note: str = "") -> dict[str, Any]:
+    entry: dict[str, Any] = {"value": float(value), "error": float(error), "fitted_on": fitted_on}
+    if note:
+        entry["note"] = note
+    return entry
+
+
+def planar_geometry(ds: xr.Dataset) -> tuple[PlanarShear, np.ndarray]:
+    """The planar cell of a fields file, and the fields' z shifted so the bottom wall is at 0."""
+    z0, z1 = float(ds.attrs["z_bottom_wall"]), float(ds.attrs["z_top_wall"])
+    geometry = PlanarShear(
+        depth=z1 - z0,
+        wall_speed=float(ds.attrs["wall_speed"]),
+        wall_pressure=float(ds.attrs["wall_pressure"]),
+        gravity=float(ds.attrs["gravity"]),
+        d=float(ds.attrs["d"]),
+        rho_s=float(ds.attrs["rho_s"]),
+    )
+    return geometry, ds.z.values - z0
+
+
+def creep_profile(ds: xr.Dataset, settings: dict[str, Any]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Points of u_x(z) usable for a log fit: inside the walls, resolved above the DEM noise."""
+    geometry, z = planar_geometry(ds)
+    u, err = ds["u_x"].values, ds["u_x_err"].values
+    floor = settings["min_speed_over_wall_speed"] * geometry.wall_speed
+    keep = (z > 0.0) & (z < geometry.depth) & (u > floor) & (u > 2.0 * err)
+    return z[keep], u[keep], err[keep]
+
+
+def calibrate(config: dict[str, Any], rheometer_files: list[Path], nonlocal_file: Path | None) -> dict[str, Any]:
+    """All parameters with errors and provenance (the content of ``params.json``)."""
+    settings = calibration_settings(config)
+    states = [bulk_state(Path(f), settings["bulk_margin_over_d"]) for f in rheometer_files]
+    if len(states) < 3:
+        raise CalibrationError(f"mu(I) has 3 parameters: need at least 3 rheometer states, got {len(states)}")
+    arr = {k: np.array([s[k] for s in states]) for k in ("I", "I_err", "mu", "mu_err", "nu", "nu_err", "p")}
+    if len({round(math.log10(i), 2) for i in arr["I"]}) < 3:
+        raise CalibrationError(f"mu(I) needs 3 distinct inertial numbers, got I = {arr['I'].tolist()}")
+    mu_fit = fits.fit_mu_i(arr["I"], arr["mu"], arr["mu_err"])
+    nu_fit = fits.fit_solid_fraction(arr["I"], arr["nu"], arr["nu_err"])
+    cs_fit = fits.fit_critical_state(arr["I"], arr["mu"], arr["mu_err"], arr["p"], arr["nu"], arr["nu_err"])
+    on_rheo = "rheometer"
+    cs_notes = {}
+    if not cs_fit.values["kappa"] > 0.0:
+        # Rigid grains: nu_cs hardly depends on p, and the fitted slope came out <= 0 within its
+        # error. The rate-independent models need p_c(nu) increasing, so kappa takes the floor
+        # (the grains' compliance scale) and the line passes through nu(I -> 0).
+        note = (f"fitted kappa {cs_fit.values['kappa']:.3g} +- {cs_fit.errors['kappa']:.2g} is not positive: "
+                f"the DEM resolves no pressure dependence of nu at the critical state; kappa set to {KAPPA_FLOOR:g}, "
+                "nu_ref to nu_c of the nu(I) fit")
+        cs_fit.values["kappa"], cs_fit.values["nu_ref"] = KAPPA_FLOOR, nu_fit.values["nu_c"]
+        cs_fit.errors["nu_ref"] = nu_fit.errors["nu_c"]
+        cs_notes = {"kappa": note, "nu_ref": note}
+    params: dict[str, Any] = {
+        "local": {name: _entry(mu_fit.values[name], mu_fit.errors[name], on_rheo) for name in mu_fit.names}
+        | {name: _entry(nu_fit.values[name], nu_fit.errors[name], on_rheo) for name in nu_fit.names},
+        "critical_state": {
+            name: _entry(cs_fit.values[name], cs_fit.errors[name], on_rheo, cs_notes.get(name, ""))
+            for name in cs_fit.names
+        }
+        | {"n": _entry(settings["critical_state_n"], 0.0, "assumed", "steady planar flow does not fix the yield exponent")},
+        "fit_quality": {
+            "mu_i_chi2_reduced": mu_fit.chi2_reduced,
+            "nu_i_chi2_reduced": nu_fit.chi2_reduced,
+            "critical_state_chi2_reduced": cs_fit.chi2_reduced,
+        },
+        "covariance": {
+            "mu_i": {"names": list(mu_fit.names), "matrix": np.asarray(mu_fit.covariance).tolist()},
+            "nu_i": {"names": list(nu_fit.names), "matrix": np.asarray(nu_fit.covariance).tolist()},
+        },
+        "rheometer_states": states,
+        "nonlocal": {},
+    }
+    if nonlocal_file is not None:
+        params["nonlocal"] = calibrate_nonlocal(params, Path(nonlocal_file), settings)
+    with open_fields(rheometer_files[0]) as first:
+        d, rho_s = float(first.attrs["d"]), float(first.attrs["rho_s"])
+    params["d"] = d
+    params["rho_s"] = rho_s
+    params["provenance"] = provenance(config)
+    return params
+
+
+def calibrate_nonlocal(params: dict[str, Any], path: Path, settings: dict[str, Any]) -> dict[str, Any]:
+    """NGF A and the Cosserat and volume-averaged l, each fitted to the creep of one run."""
+    ds = open_fields(path)
+    geometry, _ = planar_geometry(ds)
+    z, u, err = creep_profile(ds, settings)
+    where = f"{ds.attrs.get('case', '?')}/{ds.attrs.get('run', path.stem)}"
+    if z.size < 4:
+        raise CalibrationError(f"{path}: only {z.size} resolved creep points to fit the non-local lengths")
+    base = {name: entry["value"] for name, entry in (params["local"] | params["critical_state"]).items()}
+    out: dict[str, Any] = {}
+    ngf0 = ngf_parameters(base, A=0.48)
+    fit = fits.fit_nonlocal_length("ngf", geometry, lambda a: replace(ngf0, A=a), z, u, err,
+                                   initial=0.48, bounds=(0.01, 10.0), name="A", case=where)
+    at_bound = fit.values["A"] < 0.0101 or fit.values["A"] > 9.99
+    out["ngf"] = {"A": _entry(fit.values["A"], fit.errors["A"], where,
+                              "the fit sits at a bound of [0.01, 10]: the DEM creep is not NGF-shaped here" if at_bound else "")}
+    d = geometry.d
+    for model, build in (("cosserat", cosserat_parameters), ("volume_averaged", volume_averaged_parameters)):
+        start = build(base, l=d, settings=settings)
+        make = lambda l, s=start: replace(s, l=l)  # noqa: E731
+        lo, hi = admissible_interval(model, geometry, make, 0.05 * d, 20.0 * d)
+        fit = fits.fit_nonlocal_length(model, geometry, make, z, u, err, initial=math.sqrt(lo * hi),
+                                       bounds=(lo, hi), name="l", case=where)
+        note = ""
+        if lo > 0.05 * d or hi < 20.0 * d:
+            note = f"the model solves on this geometry only for l in [{lo / d:.3g}, {hi / d:.3g}] d; fitted there"
+        if fit.values["l"] > 0.99 * hi or fit.values["l"] < 1.01 * lo:
+            note += "; the fit sits at a bound of that interval"
+        out[model] = {"l": _entry(fit.values["l"], fit.errors["l"], where, note.strip("; "))}
+    ds.close()
+    return out
+
+
+def admissible_interval(model: str, geometry: PlanarShear, make_params: Any, lo: float, hi: float,
+                        n_grid: int = 400, samples: int = 25) -> tuple[float, float]:
+    """The widest interval of lengths in [lo, hi] (log-spaced samples) where the model solves.
+
+    The Cosserat model has solutions only in a window of l for a given wall-spin condition: below
+    it the couple-stress wall conditions are not met on the grid, above it the shear stress it
+    needs exceeds what the top wall admits. Fitting must stay inside that window.
+    """
+    import continuum
+
+    lengths = np.geomspace(lo, hi, samples)
+    ok = []
+    for length in lengths:
+        try:
+            continuum.solve(model, geometry, make_params(float(length)), n_grid=n_grid)
+            ok.append(True)
+        except continuum.ContinuumError:
+            ok.append(False)
+    best: tuple[int, int] | None = None
+    start = None
+    for k, good in enumerate([*ok, False]):
+        if good and start is None:
+            start = k
+        if not good and start is not None:
+            if best is None or k - start > best[1] - best[0]:
+                best = (start, k)
+            start = None
+    if best is None:
+        raise CalibrationError(f"model {model} has no solution on the calibration geometry for any l in "
+                               f"[{lo:.3g}, {hi:.3g}] m")
+    return float(lengths[best[0]]), float(lengths[best[1] - 1])
+
+
+# ------------------------------------------------------------------- parameter dataclasses
+def _mu_i(v: dict[str, float]):
+    from continuum.parameters import MuIParameters
+
+    return MuIParameters(v["mu_s"], v["mu_2"], v["I_0"])
+
+
+def local_mu_i_parameters(v: dict[str, float]) -> LocalMuIParameters:
+    from continuum.parameters import SolidFractionLaw
+
+    return LocalMuIParameters(_mu_i(v), SolidFractionLaw(v["nu_c"], v["a"]))
+
+
+def ngf_parameters(v: dict[str, float], A: float) -> NGFParameters:
+    return NGFParameters(_mu_i(v), A=A, nu=v["nu_c"])
+
+
+def critical_state_parameters(v: dict[str, float], settings: dict[str, Any] | None = None) -> CriticalStateParameters:
+    from continuum.parameters import CriticalStateLine
+
+    n = v.get("n", (settings or CALIBRATION_DEFAULTS)["critical_state_n"])
+    return CriticalStateParameters(v["sin_phi"], CriticalStateLine(v["nu_ref"], v["kappa"], v["p_ref"]), n=n)
+
+
+def cosserat_parameters(v: dict[str, float], l: float, settings: dict[str, Any] | None = None) -> CosseratParameters:
+    s = settings or CALIBRATION_DEFAULTS
+    return CosseratParameters(critical_state_parameters(v, s), l=l, beta=s["cosserat_beta"],
+                              wall_spin_ratio=s["cosserat_wall_spin_ratio"])
+
+
+def volume_averaged_parameters(v: dict[str, float], l: float, settings: dict[str, Any] | None = None) -> VolumeAveragedParameters:
+    return VolumeAveragedParameters(critical_state_parameters(v, settings), l=l)
+
+
+def values(params: dict[str, Any]) -> dict[str, float]:
+    """Flat name -> value of the local and critical-state parameters of a params.json."""
+    return {name: entry["value"] for name, entry in (params["local"] | params["critical_state"]).items()}
+
+
+def model_parameters(params: dict[str, Any], model: str) -> Any:
+    """The continuum parameter dataclass of ``model`` from a params.json content."""
+    v = values(params)
+    nonlocal_ = params.get("nonlocal", {})
+    if model == "local_mu_i":
+        return local_mu_i_parameters(v)
+    if model == "critical_state":
+        return critical_state_parameters(v)
+    if model not in nonlocal_:
+        raise CalibrationError(f"params.json has no non-local calibration for model {model!r}")
+    if model == "ngf":
+        return ngf_parameters(v, A=nonlocal_["ngf"]["A"]["value"])
+    if model == "cosserat":
+        return cosserat_parameters(v, l=nonlocal_["cosserat"]["l"]["value"])
+    if model == "volume_averaged":
+        return volume_averaged_parameters(v, l=nonlocal_["volume_averaged"]["l"]["value"])
+    raise CalibrationError(f"unknown model {model!r}")
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description="Fit the continuum parameters from DEM fields.")
+    parser.add_argument("--config", required=True)
+    parser.add_argument("--rheometer", nargs="+", required=True, type=Path, help="rheometer fields files")
+    parser.add_argument("--nonlocal", dest="nonlocal_fields", type=Path, help="fields file of the non-local calibration run")
+    parser.add_argument("--out", required=True, type=Path)
+    args = parser.parse_args(argv)
+    config = load_config(args.config)
+    params = calibrate(config, args.rheometer, args.nonlocal_fields)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = args.out.with_name(args.out.name + ".tmp")
+    tmp.write_text(json.dumps(params, indent=1))
+    tmp.replace(args.out)
+    local = params["local"]
+    print("mu_s = {:.4f} +- {:.4f}, mu_2 = {:.4f} +- {:.4f}, I_0 = {:.4f} +- {:.4f}, nu_c = {:.4f} +- {:.4f}, a = {:.3f} +- {:.3f}".format(
+        *(x for n in ("mu_s", "mu_2", "I_0", "nu_c", "a") for x in (local[n]["value"], local[n]["error"]))))
+    for model, entry in params["nonlocal"].items():
+        for name, e in entry.items():
+            print(f"{model}: {name} = {e['value']:.4g} +- {e['error']:.2g} (fitted on {e['fitted_on']})")
+    return 0

@@ -1,0 +1,238 @@
+"""Workflow step: one DEM run's dumps into its time-averaged fields file ``fields/{case}/{run}.nc``.
+
+Reads ``run.json`` and the dump store (``dumps.nc``, written by ``python -m pipeline.dumps.store``;
+the text dumps are parsed when the store is absent), averages over the snapshots inside the
+steady-state window, and writes the contract NetCDF atomically (temporary name, then rename).
+x-z fields (``--plane xz``, or cases listed in ``coarse_grain.plane_cases``) also get a VTK file
+``{run}.vts`` next to the NetCDF for ParaView.
+
+Settings come from the optional config section ``coarse_grain`` (defaults in
+:data:`DEFAULTS`): kernel, width over d, grid spacing over width, number of error blocks.
+
+The profile grid runs from the mean height of the bottom-wall grains to that of the top-wall
+grains. The physical checks of :mod:`pipeline.coarse_graining.field_checks` (momentum balance in the bulk, wall
+stress against the wall series) are computed for profiles and stored as ``check_*`` attributes.
+
+Usage: ``python -m pipeline.coarse_graining.fields --config CONFIG --run-dir RESULTS/dem/CASE/RUN
+--out RESULTS/fields/CASE/RUN.nc [--plane xz]``
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import xarray as xr
+
+from pipeline.coarse_graining import field_checks
+from pipeline.coarse_graining.coarse_grain import (CoarseGrainError, Result, check_contacts_match, coarse_grain, contact_index, plane_grid,
+                                   profile_grid, write_netcdf)
+from pipeline.dumps.store import STORE_NAME, parse_run, read_run_json, read_store
+from pipeline.dumps.reader import Dump, DumpError, shift_periodic_x
+from pipeline.coarse_graining.kernels import Kernel
+from pipeline.common.formats import FIELDS_FORMAT_VERSION
+from pipeline.common.provenance import provenance_attrs
+from pipeline.dem.wall_series import read_wall_series
+
+DEFAULTS: dict[str, Any] = {
+    "kernel": "gaussian",
+    "width_over_d": 0.5,
+    "spacing_over_width": 0.5,
+    "blocks": 5,
+    "bulk_margin_over_d": 3.0,
+    "plane_cases": [],
+}
+
+
+def settings(config: dict[str, Any]) -> dict[str, Any]:
+    """Coarse-graining settings: the config's ``coarse_grain`` section over :data:`DEFAULTS`."""
+    out = dict(DEFAULTS)
+    out.update(config.get("coarse_grain", {}) or {})
+    return out
+
+
+def load_tables(run_dir: Path, run: dict[str, Any]) -> tuple[Dump, Dump | None]:
+    """The run's particle and contact tables: from the store if present, else parsed."""
+    store = run_dir / STORE_NAME
+    if store.is_file():
+        return read_store(store)
+    return parse_run(run_dir, run)
+
+
+def steady_snapshots(particles: Dump, run: dict[str, Any]) -> np.ndarray:
+    """Indices of the particle snapshots inside the steady-state window of run.json."""
+    t0, t1 = run["steady_state_window"]
+    times = particles.timesteps * run["time_step"]
+    # Half a time step of slack: times are step * dt, rounded in run.json.
+    dt = run["time_step"]
+    chosen = np.nonzero((times >= t0 - 0.5 * dt) & (times <= t1 + 0.5 * dt))[0]
+    if chosen.size == 0:
+        raise CoarseGrainError(f"no dump snapshot inside run.json steady_state_window [{t0}, {t1}] s "
+                               f"(dumps span {times.min()}-{times.max()} s)")
+    check_dump_coverage(particles, run)
+    return chosen
+
+
+def check_dump_coverage(particles: Dump, run: dict[str, Any]) -> None:
+    """Refuse particle dumps with snapshots missing inside or at the end of the window.
+
+    A dump cut exactly between two snapshots parses cleanly; only run.json's ``dump_every`` (LIGGGHTS
+    dumps on multiples of it) tells that snapshots are missing. Runs without it are not checked.
+    """
+    every = run.get("dump_every")
+    if not every:
+        return
+    steps = particles.timesteps
+    gaps = np.nonzero(np.diff(steps) > every)[0]
+    files = ", ".join(particles.sources)
+    if gaps.size:
+        raise CoarseGrainError(f"{files}: no snapshot between steps {int(steps[gaps[0]])} and {int(steps[gaps[0] + 1])} "
+                               f"(run.json dump_every = {every}): a truncated or missing dump file?")
+    t_end = run["steady_state_window"][1]
+    if (steps[-1] + every) * run["time_step"] < t_end:
+        raise CoarseGrainError(f"{files}: the last snapshot (step {int(steps[-1])}) is more than dump_every = {every} "
+                               f"steps before the end of run.json steady_state_window ({t_end} s): a truncated dump?")
+
+
+def production_series(run_dir: Path) -> pd.DataFrame:
+    """The wall series of all production chunks, in time order."""
+    files = sorted((run_dir / "series").glob("production_*.txt"))
+    if not files:
+        raise CoarseGrainError(f"{run_dir / 'series'}: no production_*.txt wall series")
+    return pd.concat([read_wall_series(f) for f in files], ignore_index=True).sort_values("time")
+
+
+def run_fields(config: dict[str, Any], run_dir: Path, plane: bool = False,
+               width: float | None = None, checks: bool = True,
+               x_shift: Callable[[Dump, np.ndarray], np.ndarray] | None = None) -> tuple[Result, dict[str, Any]]:
+    """Coarse-grain one run; return the result (dataset with attributes) and the checks
+    (none with ``checks=False``, for studies that only need the fields).
+
+    ``x_shift(particles, snapshots)`` gives a shift along the periodic x (m) per steady snapshot:
+    the snapshots are moved by it before averaging (a moving frame, e.g. an intruder's).
+    """
+    run_dir = Path(run_dir)
+    run = read_run_json(run_dir)
+    opts = settings(config)
+    particles, contacts = load_tables(run_dir, run)
+    chosen = steady_snapshots(particles, run)
+    if contacts is not None:
+        check_contacts_match(particles, contacts, chosen)
+    if x_shift is not None:
+        shifts = x_shift(particles, chosen)
+        if contacts is not None:
+            contacts = shift_periodic_x(contacts, contact_index(particles, contacts, chosen), shifts, ("x1", "x2", "cx"))
+        particles = shift_periodic_x(particles, chosen, shifts, ("x",))
+        chosen = np.arange(len(particles))
+    d = float(run["d"])
+    kernel = Kernel(opts["kernel"], width if width is not None else opts["width_over_d"] * d)
+    walls = field_checks.wall_geometry(particles, chosen)
+    spacing = opts["spacing_over_width"] * kernel.width
+    lx, ly = run["cell"]
+    if plane:
+        box = particles.boxes[chosen[0]]
+        grid = plane_grid(float(box[0, 0]), float(lx), walls.bottom_mean, walls.top_mean, spacing)
+    else:
+        grid = profile_grid(walls.bottom_mean, walls.top_mean, dz=spacing)
+    result = coarse_grain(particles, contacts, kernel, grid, snapshots=chosen, d=d, rho_s=float(run["density"]),
+                          blocks=int(opts["blocks"]), time_step=float(run["time_step"]))
+    ds = result.dataset
+    ds.attrs.update(provenance_attrs(config))
+    ds.attrs.update({
+        "format_version": FIELDS_FORMAT_VERSION,
+        "case": run.get("case", ""), "run": run.get("run", ""),
+        "dem_provenance_json": json.dumps(run.get("provenance", {}), sort_keys=True),
+        "steady_state_window": np.asarray(run["steady_state_window"], dtype=float),
+        "wall_pressure": float(run["wall_pressure"]), "gravity": float(run["gravity"]),
+        "wall_speed": float(run["wall_speed"]), "cell": np.asarray(run["cell"], dtype=float),
+        "z_bottom_wall": walls.bottom_mean, "z_top_wall": walls.top_mean,
+        "dump_source": STORE_NAME if (run_dir / STORE_NAME).is_file() else "text dumps",
+    })
+    found: dict[str, Any] = {}
+    if checks and not plane:
+        found = physical_checks(ds, run, run_dir, particles, contacts, chosen, kernel, walls, opts)
+        for key, value in found.items():
+            ds.attrs[f"check_{key}"] = value
+    return result, found
+
+
+def physical_checks(ds: xr.Dataset, run: dict[str, Any], run_dir: Path, particles: Dump, contacts: Dump | None,
+                    chosen: np.ndarray, kernel: Kernel, walls: field_checks.WallGeometry,
+                    opts: dict[str, Any]) -> dict[str, float]:
+    """Momentum balance and wall stress (see :mod:`pipeline.coarse_graining.field_checks`)."""
+    d, g = float(run["d"]), float(run["gravity"])
+    area = float(run["cell"][0] * run["cell"][1])
+    margin = opts["bulk_margin_over_d"] * d
+    out = {f"balance_{k}": v for k, v in
+           field_checks.momentum_balance(ds, g, walls.bottom_max + margin, walls.top_min - margin).items()}
+    below, _ = field_checks.body_mass_below(particles, chosen, kernel, walls.bottom_max + kernel.cutoff)
+    _, above = field_checks.body_mass_below(particles, chosen, kernel, walls.top_min - kernel.cutoff)
+    series = production_series(run_dir)
+    fb = series[["fbot_x", "fbot_x", "fbot_z"]].mean().to_numpy() * [1, 0, 1]
+    ft = series[["ftop_x", "ftop_x", "ftop_z"]].mean().to_numpy() * [1, 0, 1]
+    for key, value in field_checks.wall_stress(ds, kernel, walls, area, g, below, above, fb, ft).items():
+        out[f"wall_series_{key}"] = value
+    # Standard errors of the series means from 5 blocks, to judge the comparison.
+    for col in ("fbot_x", "fbot_z", "ftop_x", "ftop_z"):
+        means = np.array([b.mean() for b in np.array_split(series[col].to_numpy(), 5)])
+        out[f"series_{col}_err_over_area"] = float(means.std(ddof=1) / math.sqrt(len(means)) / area)
+    if contacts is not None:
+        forces = field_checks.contact_wall_forces(particles, contacts, chosen)
+        same = field_checks.wall_stress(ds, kernel, walls, area, g, below, above,
+                                        forces["bottom"].mean(axis=0), forces["top"].mean(axis=0))
+        for key, value in same.items():
+            if key.endswith(("_expected", "_residual", "_residual_over_normal")):
+                out[f"wall_dump_{key}"] = value
+        identity = field_checks.contact_stress_identity(particles, contacts, chosen, kernel, walls, g)
+        out.update({f"identity_{k}": float(v) for k, v in identity.items()})
+    return out
+
+
+def write_vtk(ds: xr.Dataset, path: Path) -> Path:
+    """x-z fields as a VTK structured grid (one cell thick in y) for ParaView, written atomically."""
+    import pyvista as pv
+
+    x, z = ds["x"].values, ds["z"].values
+    xx, yy, zz = np.meshgrid(x, [0.0], z, indexing="ij")
+    grid = pv.StructuredGrid(xx, yy, zz)
+    for name in ds.data_vars:
+        if ds[name].dims == ("x", "z"):
+            # VTK points run x fastest: Fortran order of the (x, y, z) array.
+            grid.point_data[name] = np.asarray(ds[name].values)[:, None, :].ravel(order="F")
+    path = Path(path)
+    tmp = path.with_name(f".{path.stem}.tmp{path.suffix}")
+    grid.save(tmp)
+    tmp.replace(path)
+    return path
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--config", type=Path, required=True)
+    parser.add_argument("--run-dir", type=Path, required=True, help="RESULTS/dem/CASE/RUN")
+    parser.add_argument("--out", type=Path, required=True, help="RESULTS/fields/CASE/RUN.nc")
+    parser.add_argument("--plane", choices=("xz",), default=None, help="x-z fields (also writes a .vts)")
+    args = parser.parse_args(argv)
+    from pipeline.common.config import load_config
+
+    try:
+        config = load_config(args.config)
+        run = read_run_json(args.run_dir)
+        plane = args.plane == "xz" or run.get("case") in settings(config)["plane_cases"]
+        result, checks = run_fields(config, args.run_dir, plane=plane)
+    except (DumpError, CoarseGrainError, ValueError, KeyError) as err:
+        print(f"error: {args.run_dir}: {err}", file=sys.stderr)
+        return 1
+    write_netcdf(result.dataset, args.out)
+    if plane:
+        write_vtk(result.dataset, args.out.with_suffix(".vts"))
+    summary = ", ".join(f"{k}={v:.4g}" for k, v in checks.items()
+                        if k in ("balance_residual_xz", "balance_residual_zz") or k.endswith("_residual"))
+    print(f"{args.out}: {result.dataset.attrs['number_of_snapshots']} snapshots in {result.seconds:.2f} s; {summary}")
+    return 0

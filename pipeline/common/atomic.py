@@ -1,0 +1,44 @@
+"""Write result files so that a failed step never leaves one that looks complete.
+
+Every writer goes to ``<name>.tmp`` in the same folder and renames at the end (a rename is
+atomic on one file system): a crash leaves at most a ``.tmp`` file, never a truncated result.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+import xarray as xr
+
+
+def _tmp(path: Path) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    return path.with_name(path.name + ".tmp")
+
+
+def write_netcdf(dataset: xr.Dataset, path: Path) -> None:
+    """``dataset.to_netcdf(path)``, atomically."""
+    tmp = _tmp(Path(path))
+    dataset.to_netcdf(tmp)
+    tmp.replace(path)
+
+
+def write_csv(frame: pd.DataFrame, path: Path) -> None:
+    """``frame.to_csv(path, index=False)``, atomically."""
+    tmp = _tmp(Path(path))
+    frame.to_csv(tmp, index=False)
+    tmp.replace(path)
+
+
+def write_text(text: str, path: Path) -> None:
+    """A text file, atomically."""
+    tmp = _tmp(Path(path))
+    tmp.write_text(text)
+    tmp.replace(path)
+
+
+def write_json(data: dict[str, Any], path: Path) -> None:
+    """``data`` as indented JSON (numpy scalars as floats), atomically."""
+    write_text(json.dumps(data, indent=1, default=float), path)

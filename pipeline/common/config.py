@@ -1,0 +1,219 @@
+"""Load and validate the workflow configuration; enumerate DEM runs and derive their seeds.
+
+The schema (``config/schema.yaml``) is the single description of what a config may hold. An
+invalid config stops everything with a message naming the file, the key and what is wrong.
+"""
+from __future__ import annotations
+
+import hashlib
+import math
+import re
+from pathlib import Path
+from typing import Any
+
+import jsonschema
+import yaml
+
+
+SCHEMA_PATH = Path(__file__).resolve().parents[2] / "config" / "schema.yaml"
+
+
+class ConfigError(ValueError):
+    """The configuration is invalid; the message names the file and the key."""
+
+
+def _key_path(error: jsonschema.ValidationError) -> str:
+    parts = [str(p) for p in error.absolute_path]
+    return ".".join(parts) if parts else "(top level)"
+
+
+def validate_config(config: dict[str, Any], source: str = "<config>") -> dict[str, Any]:
+    """Check ``config`` against the schema; raise :class:`ConfigError` naming the first bad key."""
+    schema = yaml.safe_load(SCHEMA_PATH.read_text())
+    validator = jsonschema.Draft202012Validator(schema)
+    errors = sorted(validator.iter_errors(config), key=lambda e: (len(list(e.absolute_path)), str(e.absolute_path)))
+    if errors:
+        lines = [f"{source}: {_key_path(e)}: {e.message}" for e in errors[:10]]
+        raise ConfigError("invalid configuration:\n  " + "\n  ".join(lines))
+    _check_consistency(config, source)
+    return config
+
+
+def _check_consistency(config: dict[str, Any], source: str) -> None:
+    mat = config["material"]
+    if mat["design_overlap"] >= mat["max_overlap"]:
+        raise ConfigError(
+            f"{source}: material.design_overlap ({mat['design_overlap']}) must be below "
+            f"material.max_overlap ({mat['max_overlap']})"
+        )
+    for name, case in config["cases"].items():
+        pressure = working_pressure(config, name)
+        if pressure > mat["design_pressure"]:
+            raise ConfigError(
+                f"{source}: cases.{name}: largest working pressure {pressure:.0f} Pa (wall load plus the "
+                f"bed's weight) exceeds material.design_pressure ({mat['design_pressure']} Pa): its "
+                f"overlaps would exceed material.design_overlap; raise design_pressure"
+            )
+    dem = config["dem"]
+    if dem["steady_window_chunks"] > dem["max_shear_chunks"]:
+        raise ConfigError(
+            f"{source}: dem.steady_window_chunks ({dem['steady_window_chunks']}) exceeds "
+            f"dem.max_shear_chunks ({dem['max_shear_chunks']})"
+        )
+
+
+def size_classes(d: float, polydispersity: float, n_sizes: int) -> list[float]:
+    """Grain diameters (m) of the discretised uniform size distribution."""
+    if n_sizes == 1:
+        return [d]
+    lo, hi = d * (1.0 - polydispersity), d * (1.0 + polydispersity)
+    return [lo + (hi - lo) * k / (n_sizes - 1) for k in range(n_sizes)]
+
+
+def mean_grain_volume(d: float, polydispersity: float, n_sizes: int) -> float:
+    """Number-mean grain volume (m3) of the discrete size distribution."""
+    sizes = size_classes(d, polydispersity, n_sizes)
+    return float(sum(math.pi * s**3 / 6.0 for s in sizes) / len(sizes))
+
+
+def working_pressure(config: dict[str, Any], case_name: str) -> float:
+    """Largest normal stress (Pa) in a case: its largest top-wall load plus the bed's weight per area."""
+    mat = config["material"]
+    case = config["cases"][case_name]
+    area = case["cell_x"] * case["cell_y"] * mat["d"] ** 2
+    v_grain = mean_grain_volume(mat["d"], mat["polydispersity"], mat["n_sizes"])
+    weight = case["n_grains"] * v_grain * mat["rho_s"] * case["gravity"]
+    loads = [p for _, p in rheometer_states(case)] if case_name == "rheometer" else [case["wall_pressure"]]
+    return max(loads) + weight / area
+
+
+def load_config(path: str | Path) -> dict[str, Any]:
+    """Read a YAML config file and validate it."""
+    path = Path(path)
+    try:
+        config = yaml.safe_load(path.read_text())
+    except FileNotFoundError:
+        raise ConfigError(f"{path}: config file not found") from None
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"{path}: not valid YAML: {exc}") from None
+    if not isinstance(config, dict):
+        raise ConfigError(f"{path}: top level must be a mapping of keys")
+    return validate_config(config, str(path))
+
+
+def rheometer_states(case: dict[str, Any]) -> list[tuple[float, float]]:
+    """(target inertial number, wall pressure in Pa) of every rheometer state, in config order.
+
+    The states are ``inertial_numbers`` at ``wall_pressure``, then the ``extra_states`` (other
+    pressures, which the critical-state line p_c(nu) needs).
+    """
+    states = [(float(i), float(case["wall_pressure"])) for i in case["inertial_numbers"]]
+    states += [(float(s["inertial_number"]), float(s["wall_pressure"])) for s in case.get("extra_states", [])]
+    return states
+
+
+def run_ids(case_name: str, case: dict[str, Any]) -> list[str]:
+    """Names of the DEM runs of one case: one per (state, replica) or per replica."""
+    replicas = [f"r{k + 1}" for k in range(case["replicas"])]
+    if case_name == "rheometer":
+        return [f"I{i:g}-P{p:g}-{rep}" for i, p in rheometer_states(case) for rep in replicas]
+    if case["geometry"] == "intruder":
+        # D<depth in d>-r<k>; the control (top wall at rest) at the shallowest depth: D<depth>-control-r<k>.
+        depths = case["depths_below_top"]
+        runs = [f"D{depth:g}-{rep}" for depth in depths for rep in replicas]
+        if case.get("control", False):
+            runs += [f"D{min(depths):g}-control-{rep}" for rep in replicas]
+        return runs
+    return replicas + size_study_runs(case)
+
+
+def size_study_runs(case: dict[str, Any]) -> list[str]:
+    """Runs of the DEM system-size study of a planar case: ``L<cell in d>-r<k>``."""
+    study = case.get("size_study") or {}
+    return [f"L{cell:g}-r{k + 1}" for cell in study.get("cells", []) for k in range(study.get("replicas", 0))]
+
+
+def size_study_cell(run: str) -> float | None:
+    """Cell length (in d) of a size-study run id ``L<cell>-r<k>``; None for any other run."""
+    match = re.fullmatch(r"L([0-9.eE+-]+)-r\d+", run)
+    return float(match.group(1)) if match else None
+
+
+def run_case(case: dict[str, Any], run: str) -> dict[str, Any]:
+    """The case spec one run uses: a size-study run has a square L x L cell and the grains per
+    area of the case (same bed height, same pressures); every other run the case as given."""
+    cell = size_study_cell(run)
+    if cell is None:
+        return case
+    scale = cell * cell / (case["cell_x"] * case["cell_y"])
+    return {**case, "cell_x": cell, "cell_y": cell, "n_grains": int(round(case["n_grains"] * scale))}
+
+
+def dem_runs(config: dict[str, Any]) -> list[tuple[str, str]]:
+    """Every (case, run) pair of the config, in a stable order."""
+    return [(name, run) for name, case in config["cases"].items() for run in run_ids(name, case)]
+
+
+_RHEOMETER_RUN = re.compile(r"^I([0-9.eE+-]+)-P([0-9.eE+-]+)-r\d+$")
+
+
+def run_state(run: str) -> tuple[float, float]:
+    """Target inertial number and wall pressure (Pa) of a rheometer run id (``I0.02-P200-r1``)."""
+    match = _RHEOMETER_RUN.match(run)
+    if match is None:
+        raise ValueError(f"run id {run!r} is not a rheometer run id (expected 'I<inertial number>-P<pressure>-r<k>')")
+    return float(match.group(1)), float(match.group(2))
+
+
+_INTRUDER_RUN = re.compile(r"^D([0-9.eE+-]+)-(control-)?(r\d+)$")
+
+
+def intruder_run(run: str) -> tuple[float, bool, str]:
+    """Depth below the top wall (in d), control flag and replica of an intruder run id (``D6-control-r1``)."""
+    match = _INTRUDER_RUN.match(run)
+    if match is None:
+        raise ValueError(f"run id {run!r} is not an intruder run id (expected 'D<depth in d>-[control-]r<k>')")
+    return float(match.group(1)), match.group(2) is not None, match.group(3)
+
+
+def derived_seed(master_seed: int, *labels: str) -> int:
+    """A deterministic 31-bit seed from the master seed and labels (stable across Python runs)."""
+    text = ":".join([str(master_seed), *labels]).encode()
+    return int.from_bytes(hashlib.sha256(text).digest()[:4], "little") & 0x7FFFFFFF
+
+
+def _is_prime(n: int) -> bool:
+    if n < 2:
+        return False
+    if n % 2 == 0:
+        return n == 2
+    k = 3
+    while k * k <= n:
+        if n % k == 0:
+            return False
+        k += 2
+    return True
+
+
+def liggghts_seed(master_seed: int, *labels: str) -> int:
+    """A prime above 10000 derived from the master seed (LIGGGHTS requires prime seeds)."""
+    n = 10007 + derived_seed(master_seed, *labels) % 50_000_000
+    while not _is_prime(n):
+        n += 1
+    return n
+
+
+#: Config sections that do not change what a DEM run computes.
+NON_DEM_SECTIONS = ("coarse_grain", "calibration", "models")
+
+
+def dem_config(config: dict[str, Any], case: str | None = None) -> dict[str, Any]:
+    """The part of a config a DEM run depends on (still a valid config on its own).
+
+    With ``case``, only that case is kept: adding or changing another case does not touch it.
+    """
+    out = {key: value for key, value in config.items() if key not in NON_DEM_SECTIONS}
+    if case is not None:
+        # A size study adds runs of other cell sizes; it does not change the case's own runs.
+        out["cases"] = {case: {k: v for k, v in config["cases"][case].items() if k != "size_study"}}
+    return out

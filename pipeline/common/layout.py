@@ -1,0 +1,89 @@
+"""Where the workflow writes each result: the paths of the results layout (docs/outputs.md,
+../shared/contract.md) and the case lists they are built from. The Snakefile's rules and the
+stages that read results (the report) both name files through this module."""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from pipeline.common.config import dem_runs, size_study_cell
+
+
+#: Figures the report writes as PNG files (flagged with Snakemake's report()).
+REPORT_FIGURES = ("profiles", "calibration", "pareto", "well_posedness", "mesh_convergence", "wall_series")
+
+
+def root(config: dict[str, Any]) -> Path:
+    """The output root folder of a config."""
+    return Path(config["output_root"])
+
+
+def run_json_paths(config: dict[str, Any]) -> list[str]:
+    """``dem/{case}/{run}/run.json`` of every DEM run."""
+    return [str(root(config) / "dem" / case / run / "run.json") for case, run in dem_runs(config)]
+
+
+def report_figures(config: dict[str, Any]) -> list[str]:
+    """Names of the figures the report writes for this config."""
+    return (list(REPORT_FIGURES) + (["intruder", "intruder_field"] if intruder_cases(config) else [])
+            + (["dem_convergence"] if convergence_cases(config) else []))
+
+
+def fields_paths(config: dict[str, Any], case: str | None = None, size_study: bool = False) -> list[str]:
+    """``fields/{case}/{run}.nc`` of every DEM run (of one case if given); the runs of a
+    ``size_study`` (other cell sizes, never scored) only when asked for."""
+    return [
+        str(root(config) / "fields" / c / f"{run}.nc") for c, run in dem_runs(config)
+        if (case is None or c == case) and (size_study or size_study_cell(run) is None)
+    ]
+
+
+def convergence_cases(config: dict[str, Any]) -> list[str]:
+    """Scored cases with two or more replicas: their DEM noise has a convergence study."""
+    return [case for case in scored_cases(config) if config["cases"][case]["replicas"] >= 2]
+
+
+def convergence_paths(config: dict[str, Any]) -> list[str]:
+    """``dem_convergence/{case}.csv`` of every case with a DEM convergence study."""
+    return [str(root(config) / "dem_convergence" / f"{case}.csv") for case in convergence_cases(config)]
+
+
+def model_names(config: dict[str, Any]) -> list[str]:
+    """Continuum models to solve (config ``models.names``, all five by default)."""
+    names = (config.get("models") or {}).get("names")
+    return list(names) if names else ["local_mu_i", "critical_state", "cosserat", "ngf", "volume_averaged"]
+
+
+def scored_cases(config: dict[str, Any]) -> list[str]:
+    """Planar cases the 1D continuum models are solved on and scored against (not the rheometer)."""
+    return [case for case, spec in config["cases"].items() if case != "rheometer" and spec["geometry"] == "planar_shear"]
+
+
+def model_paths(config: dict[str, Any]) -> list[str]:
+    """``models/{case}/{model}.nc`` for every scored planar case and model."""
+    return [str(root(config) / "models" / case / f"{model}.nc") for case in scored_cases(config) for model in model_names(config)]
+
+
+def intruder_cases(config: dict[str, Any]) -> list[str]:
+    """Cases with an intruder (scored by the intruder's speed)."""
+    return [case for case, spec in config["cases"].items() if spec["geometry"] == "intruder"]
+
+
+#: Models that predict an intruder speed (continuum.intruder); Cosserat is not solved in 2D.
+INTRUDER_MODELS = ("ngf", "local_mu_i", "critical_state", "volume_averaged")
+
+
+def intruder_model_paths(config: dict[str, Any]) -> list[str]:
+    """``models/{case}/{model}.nc`` of the intruder cases."""
+    return [str(root(config) / "models" / case / f"{model}.nc") for case in intruder_cases(config)
+            for model in model_names(config) if model in INTRUDER_MODELS]
+
+
+def all_intruder_run_jsons(config: dict[str, Any]) -> list[str]:
+    """run.json of every run of every intruder case."""
+    return [str(root(config) / "dem" / c / r / "run.json") for c, r in dem_runs(config) if c in intruder_cases(config)]
+
+
+def intruder_plane_paths(config: dict[str, Any]) -> list[str]:
+    """``fields_xz/{case}/{run}.nc`` (x-z fields in the rod's frame) of every intruder run."""
+    return [str(root(config) / "fields_xz" / c / f"{r}.nc") for c, r in dem_runs(config) if c in intruder_cases(config)]

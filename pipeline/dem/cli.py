@@ -1,0 +1,50 @@
+"""``python -m pipeline.dem``: one DEM run of a case, planar shear or intruder by its geometry."""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from pipeline.common import atomic
+from pipeline.common.config import load_config
+from pipeline.dem.intruder_run import IntruderRun, YieldProbe
+from pipeline.dem.planar_run import PlanarShearRun
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(
+        description="One LIGGGHTS run of a case: fill and settle, shear until steady, produce "
+                    "(planar shear, or the intruder case by its geometry).")
+    parser.add_argument("--config", required=True, help="workflow config (YAML)")
+    parser.add_argument("--case", required=True, help="case name in the config (rheometer, shear_gravity, intruder)")
+    parser.add_argument("--run", required=True, help="run id (e.g. I0.02-r1, r2, D5-r1, D5-control-r1)")
+    parser.add_argument("--out", help="run folder (default: <output_root>/dem/<case>/<run>)")
+    parser.add_argument("--mpi-ranks", type=int, help="override dem.mpi_ranks")
+    parser.add_argument("--mpi-launcher", help="override dem.mpi_launcher ('none' runs the binary directly)")
+    parser.add_argument("--probe-yield", action="store_true",
+                        help="intruder cases: measure the rod's yield force (staircase, wall at rest)")
+    args = parser.parse_args(argv)
+    config = load_config(args.config)
+    if args.mpi_ranks is not None:
+        config["dem"]["mpi_ranks"] = args.mpi_ranks
+    if args.mpi_launcher is not None:
+        config["dem"]["mpi_launcher"] = args.mpi_launcher
+    if args.case not in config["cases"]:
+        parser.error(f"case {args.case!r} is not in {args.config} (cases: {', '.join(config['cases'])})")
+    out = Path(args.out) if args.out else Path(config["output_root"]) / "dem" / args.case / args.run
+    intruder = config["cases"][args.case]["geometry"] == "intruder"
+    if args.probe_yield:
+        if not intruder:
+            parser.error(f"--probe-yield needs an intruder case; {args.case!r} is planar shear")
+        result = YieldProbe(config, args.case, args.run, out).run()
+        print(f"yield coefficient between {result['largest_held_coefficient']} and {result['first_moving_coefficient']} (x p D L)")
+        return 0
+    runner = IntruderRun if intruder else PlanarShearRun
+    record = runner(config, args.case, args.run, out).run()
+    atomic.write_json(record, out / "run.json")
+    if intruder:
+        rod = record["intruder"]
+        print(f"{args.case}/{args.run}: depth {rod['depth_over_d']:.2f} d, speed {rod['speed']:.3g} +- {rod['speed_err']:.2g} m/s, "
+              f"arrested {rod['arrested']}")
+    else:
+        print(f"{args.case}/{args.run}: {record['steps']} steps in {record['wall_clock_seconds']:.1f} s of LIGGGHTS")
+    return 0

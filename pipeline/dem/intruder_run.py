@@ -1,0 +1,314 @@
+"""DEM runs of the intruder case: a rigid rod along y, pushed along +x, in planar shear with gravity.
+
+The geometry is that of ``shear_gravity`` (periodic in x and y, bottom rough wall at rest, top
+rough wall at ``wall_speed`` along +x under ``wall_pressure``, gravity along -z) with a rod of
+diameter ``rod_diameter`` d spanning the periodic y direction, its axis ``depth`` d below the top
+wall's centres. The rod is a line of overlapping type-4 grains made one rigid body (LIGGGHTS
+``fix rigid single``) that is free along x only: its height and orientation are held, because the
+measurement is the creep speed *at a given depth* (a rod free along z would sink or rise). A
+constant total force ``F`` along +x is shared equally by its grains (``fix addforce``).
+
+``F`` is a fraction (``force``) of the rod's yield force at the shallowest depth when nothing
+else flows, ``F_yield = yield_coefficient * p * D * L``, with ``p`` the hydrostatic estimate of
+the pressure at the rod's axis (:func:`hydrostatic_pressure`), ``D`` its diameter and ``L`` the
+cell length along y. ``yield_coefficient`` is measured with :class:`YieldProbe` (top wall at rest,
+a staircase of forces; ``python -m pipeline.dem --probe-yield``) and written in the
+config. All runs of a case use the same ``F``; the control run (``D<depth>-control-r<k>``) repeats
+the shallowest run with the top wall at rest (same seed, so the same settled packing).
+
+Run ids: ``D<depth in d>-r<k>`` and ``D<depth in d>-control-r<k>``. Sign conventions: x is the
+flow direction, z up, gravity along -z; the rod's speed is positive along +x (the push and the
+top wall's motion).
+
+Usage::
+
+    python -m pipeline.dem --config config/ci.yaml --case intruder --run D4-r1 --out /tmp/i
+    python -m pipeline.dem --config config/ci.yaml --case intruder --run D4-control-r1 --probe-yield --out /tmp/p
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from pipeline.common import atomic
+from pipeline.dem import liggghts_render as render
+from pipeline.common.config import derived_seed, intruder_run, mean_grain_volume
+from pipeline.dem.liggghts_log import DEMRunError
+from pipeline.dem.planar_run import PlanarShearRun
+
+#: Solid fraction assumed for the settled bed when placing the rod (the real depth is recorded).
+BED_SOLID_FRACTION = 0.6
+#: Height (in d) added to the bed's solid height / BED_SOLID_FRACTION to get the wall-to-wall gap
+#: under shear: the wall layers and the loose top of the poured bed (+2.2 d at the fill) less the
+#: compaction under the load and shear (-0.9 d), both measured on a reduced intruder run.
+WALL_LAYERS_OVER_D = 1.3
+#: Spacing (in d) of the rod's grains along y: the bumps of the rod's surface are 0.02 d deep at D = 3 d.
+ROD_SPACING_OVER_D = 0.5
+#: Smallest clearance (in d) between the rod's surface and the bottom wall's centres.
+MIN_BOTTOM_CLEARANCE_OVER_D = 2.0
+#: A rod that moves less than this (in d) over the measuring window is arrested, whatever the fit.
+ARREST_DISPLACEMENT_OVER_D = 0.1
+#: Blocks the measuring window is cut into for the speed's standard error.
+SPEED_BLOCKS = 8
+#: Columns of the intruder series (``fix ave/time`` in liggghts_inputs/intruder/shear.in).
+INTRUDER_COLUMNS = ("step", "time", "x", "vx", "z", "fx_contact", "fz_contact")
+#: Yield probe: push forces, as multiples of p D L, held one chunk each (0 first: the bed settles under the load).
+PROBE_COEFFICIENTS = (0.0, 0.5, 1.0, 1.5, 2.0, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0)
+#: Yield probe: a step in which the rod moves more than this (in d) is above the yield force.
+PROBE_YIELD_DISPLACEMENT_OVER_D = 0.5
+
+
+@dataclass(frozen=True)
+class CreepSpeed:
+    """Steady speed of the rod over a window.
+
+    Attributes:
+        speed: mean speed along +x (m/s), the mean of the block slopes of x(t).
+        speed_err: standard error of ``speed`` (m/s) from the scatter of the block slopes.
+        displacement: x(end) - x(start) over the window (m).
+        duration: window length (s).
+        arrested: no steady motion: ``|speed| <= 2 speed_err`` or ``|displacement|`` below
+            :data:`ARREST_DISPLACEMENT_OVER_D` d.
+    """
+
+    speed: float
+    speed_err: float
+    displacement: float
+    duration: float
+    arrested: bool
+
+    def as_dict(self) -> dict[str, float | bool]:
+        return asdict(self)
+
+
+def creep_speed(time: np.ndarray, x: np.ndarray, d: float, n_blocks: int = SPEED_BLOCKS) -> CreepSpeed:
+    """Speed (m/s) of the rod from its position ``x`` (m) at ``time`` (s), with a block error.
+
+    The window is cut into ``n_blocks`` consecutive blocks; the slope of x(t) in each block is one
+    sample of the speed. Blocks much longer than the correlation time of the rod's jiggling make
+    the samples independent, so their standard error is that of the mean.
+    """
+    time = np.asarray(time, dtype=float)
+    x = np.asarray(x, dtype=float)
+    if time.size < 3 * n_blocks:
+        raise ValueError(f"need at least {3 * n_blocks} samples for {n_blocks} blocks, got {time.size}")
+    slopes = np.array([np.polyfit(t, y, 1)[0] for t, y in zip(np.array_split(time, n_blocks), np.array_split(x, n_blocks))])
+    speed = float(slopes.mean())
+    err = float(slopes.std(ddof=1) / math.sqrt(n_blocks))
+    displacement = float(x[-1] - x[0])
+    arrested = abs(speed) <= 2.0 * err or abs(displacement) < ARREST_DISPLACEMENT_OVER_D * d
+    return CreepSpeed(speed, err, displacement, float(time[-1] - time[0]), bool(arrested))
+
+
+def hydrostatic_pressure(wall_pressure: float, rho_s: float, gravity: float, depth: float,
+                         solid_fraction: float = BED_SOLID_FRACTION) -> float:
+    """Vertical stress (Pa, compressive positive) at ``depth`` (m) below the top wall: P + nu rho_s g depth."""
+    return wall_pressure + solid_fraction * rho_s * gravity * depth
+
+
+def unwrap(x: np.ndarray, lx: float) -> np.ndarray:
+    """Positions (m) wrapped into a periodic cell of length ``lx`` made continuous (jumps below lx / 2)."""
+    return np.unwrap(np.asarray(x, dtype=float), period=lx)
+
+
+def read_intruder_series(path: Path) -> pd.DataFrame:
+    """One intruder series file: step, time (s), x, z (m, rod centre of mass; x wrapped into the
+    cell, see :func:`unwrap`), vx (m/s), fx_contact, fz_contact (N, force of the grains on the rod,
+    the push excluded)."""
+    if not path.exists():
+        raise DEMRunError(f"{path}: intruder series file not found")
+    data = np.loadtxt(path, comments="#", ndmin=2)
+    if data.shape[1] != len(INTRUDER_COLUMNS) or not np.all(np.isfinite(data)):
+        raise DEMRunError(f"{path}: expected {len(INTRUDER_COLUMNS)} finite columns, found shape {data.shape}")
+    return pd.DataFrame(data, columns=list(INTRUDER_COLUMNS))
+
+
+class IntruderRun(PlanarShearRun):
+    """One run of the intruder case (see the module docstring); reuses the planar-shear stages."""
+
+    def __init__(self, config: dict[str, Any], case_name: str, run_id: str, run_dir: Path) -> None:
+        super().__init__(config, case_name, run_id, run_dir)
+        self.depth_over_d, self.control, replica = intruder_run(run_id)
+        if self.control:
+            # Same seed as the sheared run at this depth: same walls, rod and settled packing,
+            # so the control differs from it by the wall at rest only.
+            self.seed = derived_seed(config["seed"], case_name, f"D{self.depth_over_d:g}-{replica}")
+        d = self.mat["d"]
+        self.rod_diameter = float(self.case["rod_diameter"]) * d
+        self.rod_length = float(self.case["cell_y"]) * d
+        self.n_rod = max(1, int(round(self.case["cell_y"] / ROD_SPACING_OVER_D)))
+
+    # ----------------------------------------------------------------------------- the force
+    def yield_force_estimate(self) -> float:
+        """Yield force (N) of the rod at rest at the case's shallowest depth (config ``yield_coefficient``)."""
+        d = self.mat["d"]
+        shallowest = min(self.case["depths_below_top"]) * d
+        p = hydrostatic_pressure(self.wall_pressure, self.mat["rho_s"], self.case["gravity"], shallowest)
+        return float(self.case["yield_coefficient"]) * p * self.rod_diameter * self.rod_length
+
+    def push_force(self) -> float:
+        """Total push on the rod along +x (N): the same for every depth and for the control."""
+        return float(self.case["force"]) * self.yield_force_estimate()
+
+    # ------------------------------------------------------------------------- planar hooks
+    def wall_speed(self) -> float:
+        """Top-wall speed (m/s): the case's, or 0 for the control run."""
+        return 0.0 if self.control else float(self.case["wall_speed"])
+
+    def reference_speed(self) -> float:
+        """The case's wall speed even for the control: its chunks last as long as the sheared runs'."""
+        return float(self.case["wall_speed"])
+
+    def _write_fill_bodies(self, first_id: int, z_bottom: float) -> int:
+        """Write ``intruder.in`` (the rod's grains) and return their number.
+
+        The rod's height comes from the expected bed: ``n_grains`` grains at solid fraction
+        :data:`BED_SOLID_FRACTION` plus the rod's own cross-section, over the cell area, plus the
+        wall layers. The depth actually reached is measured after the fill and recorded.
+        """
+        d, rho = self.mat["d"], self.mat["rho_s"]
+        lx, ly = self.case["cell_x"] * d, self.rod_length
+        radius = 0.5 * self.rod_diameter
+        v_grains = self.case["n_grains"] * mean_grain_volume(d, self.mat["polydispersity"], self.mat["n_sizes"])
+        gap = (v_grains / BED_SOLID_FRACTION + math.pi * radius**2 * ly) / (lx * ly) + WALL_LAYERS_OVER_D * d
+        z_rod = z_bottom + gap - self.depth_over_d * d
+        if z_rod - radius - z_bottom < MIN_BOTTOM_CLEARANCE_OVER_D * d:
+            raise DEMRunError(
+                f"{self.label}: a rod {self.depth_over_d:g} d below the top of an expected {gap / d:.1f} d bed is within "
+                f"{MIN_BOTTOM_CLEARANCE_OVER_D:g} d of the bottom wall (more grains or a shallower depth)"
+            )
+        spacing = ly / self.n_rod
+        # Density such that the rod weighs what a solid cylinder of grain material would.
+        rho_rod = rho * (math.pi * radius**2 * ly) / (self.n_rod * math.pi * self.rod_diameter**3 / 6.0)
+        x_rod = 0.25 * lx
+        lines = [f"create_atoms 4 single {x_rod!r} {(k + 0.5) * spacing!r} {z_rod!r} units box" for k in range(self.n_rod)]
+        for k in range(self.n_rod):
+            lines.append(f"set atom {first_id + k} diameter {self.rod_diameter!r}")
+            lines.append(f"set atom {first_id + k} density {rho_rod!r}")
+        (self.run_dir / "intruder.in").write_text("\n".join(lines) + "\n")
+        self.state["intruder"] = {"first_id": first_id, "n_grains": self.n_rod, "x0": x_rod, "z": z_rod,
+                                  "expected_gap": gap, "grain_density": rho_rod, "spacing": spacing}
+        return self.n_rod
+
+    def _chunk_variables(self, stage: str) -> dict[str, object]:
+        return {"rod_force_per_grain": self._chunk_force(stage) / self.n_rod,
+                "intruder_file": f"series/intruder_{stage}.txt"}
+
+    def _chunk_force(self, stage: str) -> float:
+        """Total push (N) during one chunk: constant here; a staircase in :class:`YieldProbe`."""
+        return self.push_force()
+
+    # --------------------------------------------------------------------------- analysis
+    def intruder_series(self, t_start: float, t_end: float) -> pd.DataFrame:
+        """The rod's series of all committed chunks, restricted to ``t_start <= time <= t_end`` (s)."""
+        frames = [read_intruder_series(self.run_dir / "series" / f"intruder_{c['stage']}.txt")
+                  for c in self.state["chunks"] if c["t_end"] >= t_start and c["t_start"] <= t_end]
+        data = pd.concat(frames, ignore_index=True)
+        data["x"] = unwrap(data["x"].to_numpy(), self.case["cell_x"] * self.mat["d"])
+        return data[(data["time"] >= t_start) & (data["time"] <= t_end)].reset_index(drop=True)
+
+    def _record(self, plan: dict[str, int]) -> dict[str, Any]:
+        record = super()._record(plan)
+        d = self.mat["d"]
+        rod = self.state["intruder"]
+        record["particle_count"] += rod["n_grains"]
+        # The measuring window is the production window, after the wall's steady state was
+        # detected: the rod's own start-up (it starts at rest in a bed just loaded by the wall and
+        # the Couette start of the first chunk) lasts longer than the wall's. Seen on reduced runs:
+        # a control pushed 0.4 d in its first chunk, then still to 1e-5 d; a rod 7 d deep moved
+        # 2.5 d in the first chunk and slowed down through the second.
+        t_start, t_end = record["production_window"]
+        series = self.intruder_series(t_start, t_end)
+        wall = self.series()
+        wall = wall[(wall["time"] >= t_start) & (wall["time"] <= t_end)]
+        creep = creep_speed(series["time"].to_numpy(), series["x"].to_numpy(), d)
+        depth = float(wall["h_top"].mean() - series["z"].mean())
+        everything = self.intruder_series(-math.inf, math.inf)
+        record["intruder"] = {
+            "control": self.control,
+            "depth_target_over_d": self.depth_over_d,
+            "depth": depth,
+            "depth_over_d": depth / d,
+            "depth_at_fill_over_d": (self.state["fill"]["z_top_wall"] - rod["z"]) / d,
+            "z": float(series["z"].mean()),
+            "z_drift": float(everything["z"].max() - everything["z"].min()),
+            "diameter": self.rod_diameter,
+            "length": self.rod_length,
+            "n_grains": rod["n_grains"],
+            "grain_spacing": rod["spacing"],
+            "force": self.push_force(),
+            "force_fraction": float(self.case["force"]),
+            "yield_force_estimate": self.yield_force_estimate(),
+            "yield_coefficient": float(self.case["yield_coefficient"]),
+            "yield_source": "config yield_coefficient * (P + nu rho_s g h_min) * D * L; coefficient measured with "
+                            "pipeline.dem.intruder_run --probe-yield (top wall at rest, staircase of forces)",
+            "mean_contact_force_x": float(series["fx_contact"].mean()),
+            "speed": creep.speed,
+            "speed_err": creep.speed_err,
+            "speed_over_wall_speed": creep.speed / self.reference_speed(),
+            "displacement": creep.displacement,
+            "window": [t_start, t_end],
+            "arrested": creep.arrested,
+            "speed_blocks": SPEED_BLOCKS,
+        }
+        return record
+
+
+class YieldProbe(IntruderRun):
+    """The yield force of the rod at rest: top wall at rest, a staircase of pushes, one chunk each.
+
+    Pushes are ``PROBE_COEFFICIENTS * p D L`` (p: :func:`hydrostatic_pressure` at the rod's axis).
+    The first step (no push) lets the bed settle under the wall load. The yield force lies
+    between the last push under which the rod moved less than
+    :data:`PROBE_YIELD_DISPLACEMENT_OVER_D` d in its step and the first one above; the probe
+    stops there. Written to ``yield.json`` in the run folder.
+    """
+
+    def __init__(self, config: dict[str, Any], case_name: str, run_id: str, run_dir: Path) -> None:
+        super().__init__(config, case_name, run_id, run_dir)
+        self.control = True
+        d = self.mat["d"]
+        self.scale = hydrostatic_pressure(self.wall_pressure, self.mat["rho_s"], self.case["gravity"],
+                                          self.depth_over_d * d) * self.rod_diameter * self.rod_length
+
+    def _chunk_force(self, stage: str) -> float:
+        return PROBE_COEFFICIENTS[int(stage.split("_")[-1])] * self.scale
+
+    def run(self) -> dict[str, Any]:
+        self.run_dir.mkdir(parents=True, exist_ok=True)
+        render.copy_templates(self.case["geometry"], self.run_dir)
+        self._load_state()
+        if "fill" not in self.state:
+            self._fill()
+        plan = self._chunk_plan()
+        d = self.mat["d"]
+        steps = []
+        for k, coefficient in enumerate(PROBE_COEFFICIENTS):
+            done = [c for c in self.state["chunks"] if c["kind"] == "shear"]
+            chunk = done[k] if k < len(done) else self._run_chunk("shear", k, plan)
+            rod = read_intruder_series(self.run_dir / "series" / f"intruder_{chunk['stage']}.txt")
+            rod["x"] = unwrap(rod["x"].to_numpy(), self.case["cell_x"] * d)
+            half = rod.iloc[len(rod) // 2 :]
+            steps.append({"coefficient": coefficient, "force": coefficient * self.scale,
+                          "displacement_over_d": float(rod["x"].iloc[-1] - rod["x"].iloc[0]) / d,
+                          "late_speed": float(np.polyfit(half["time"], half["x"], 1)[0])})
+            if steps[-1]["displacement_over_d"] > PROBE_YIELD_DISPLACEMENT_OVER_D:
+                break
+        moved = [s for s in steps if s["displacement_over_d"] > PROBE_YIELD_DISPLACEMENT_OVER_D]
+        held = [s for s in steps if s["displacement_over_d"] <= PROBE_YIELD_DISPLACEMENT_OVER_D]
+        result = {
+            "case": self.case_name, "run": self.run_id, "depth_over_d": self.depth_over_d,
+            "depth_at_fill_over_d": (self.state["fill"]["z_top_wall"] - self.state["intruder"]["z"]) / d,
+            "p_D_L": self.scale, "step_duration": plan["chunk_steps"] * self.design.dt, "steps": steps,
+            "largest_held_coefficient": held[-1]["coefficient"] if held else None,
+            "first_moving_coefficient": moved[0]["coefficient"] if moved else None,
+            "criterion": f"rod moves more than {PROBE_YIELD_DISPLACEMENT_OVER_D} d during one step",
+            "wall_clock_seconds": self.state["wall_seconds"],
+        }
+        atomic.write_json(result, self.run_dir / "yield.json")
+        return result

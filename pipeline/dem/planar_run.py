@@ -1,0 +1,533 @@
+"""Run one planar-shear DEM case with LIGGGHTS: fill and settle, shear until steady, produce.
+
+Stages, each a separate LIGGGHTS call continued from the previous one's restart file:
+
+1. ``fill``: pour and settle the grains under gravity; the pipeline then makes the lowest and the
+   highest layer of grains into the rough walls.
+2. ``shear_NNN``: chunks of ``chunk_strain`` wall displacement over depth each; after every chunk
+   the wall shear force and wall height over the trailing ``steady_window_chunks`` chunks are
+   tested for drift (:mod:`pipeline.dem.steady_state`). The first window that passes is the start of
+   the steady state.
+3. ``production_NNN``: chunks of the same length that also dump particles and contacts.
+
+Every chunk is committed (restart renamed from its temporary name, state.json rewritten) only
+after its log and its wall series passed the failure checks, so a killed run resumes from the
+last committed chunk and gives the same numbers. ``run.json`` is written last, under a temporary
+name renamed at the end: its presence means the run finished.
+
+Usage: ``python -m pipeline.dem --config config/config.yaml --case rheometer --run I0.02-r1``
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import shlex
+import shutil
+import subprocess
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from pipeline.dem import liggghts_render as render
+from pipeline.common.config import dem_config, derived_seed, liggghts_seed, mean_grain_volume, run_case, run_state, size_classes
+from pipeline.dem.contact_scaling import ContactDesign, design_contacts
+from pipeline.common.formats import RUN_FORMAT_VERSION
+from pipeline.dem.liggghts_log import DEMRunError, check_run, printed_value
+from pipeline.common.provenance import provenance
+from pipeline.dem.rough_wall import layer_include, random_layer
+from pipeline.dem.steady_state import drift_test
+from pipeline.dem.wall_series import PAIRSUM_COLUMNS, read_wall_series
+
+#: Column of ``delta`` (overlap) among the pair/gran/local outputs ``pos id force contactPoint delta``
+#: (LIGGGHTS orders them pos(6) id(3) force(3) delta(1) contactPoint(3); checked by a test on a real run).
+CONTACT_COLUMNS = (
+    "x1", "y1", "z1", "x2", "y2", "z2", "id1", "id2", "periodic",
+    "fx", "fy", "fz", "delta", "cx", "cy", "cz",
+)
+DELTA_COLUMN = CONTACT_COLUMNS.index("delta") + 1
+#: Solid fraction assumed when estimating the height of the initial loose insertion region.
+INSERTION_SOLID_FRACTION = 0.25
+#: Smallest wall-to-wall gap (in d) a run accepts: the bulk is sampled 3 d from each wall.
+MIN_GAP_OVER_D = 6.0
+#: Damping ratio of the top wall's vertical motion on the bed (see PlanarShearRun._wall_damping).
+WALL_DAMPING_RATIO = 0.1
+#: Kinetic energy per grain, in units of m g d, below which the poured packing counts as settled.
+SETTLED_KE_PER_GRAIN = 1e-3
+
+
+def contact_design(config: dict[str, Any]) -> ContactDesign:
+    """The one contact design shared by all cases, so the calibration transfers between them.
+
+    It depends on the material section only (``design_pressure`` sets the stiffness), never on
+    the other cases of the config: a DEM run reads a config that holds its own case alone.
+    """
+    mat = config["material"]
+    return design_contacts(
+        p_max=mat["design_pressure"],
+        d=mat["d"],
+        polydispersity=mat["polydispersity"],
+        rho_s=mat["rho_s"],
+        poisson_ratio=mat["poisson_ratio"],
+        design_overlap=mat["design_overlap"],
+        max_overlap=mat["max_overlap"],
+        dt_over_contact_time=mat["dt_over_contact_time"],
+    )
+
+
+@dataclass
+class Launcher:
+    """How LIGGGHTS is started: ``[mpi_launcher -n ranks] liggghts``."""
+
+    liggghts: str
+    mpi_launcher: str = ""
+    ranks: int = 1
+
+    def command(self, input_name: str, log_name: str) -> list[str]:
+        binary = shutil.which(self.liggghts)
+        if binary is None:
+            raise DEMRunError(f"LIGGGHTS executable {self.liggghts!r} not found on PATH (install the Debian package 'liggghts')")
+        # Screen output is kept (sent to a file by the caller): LIGGGHTS 3.8 crashes in some
+        # fixes (wall/gran primitive) when started with '-screen none'.
+        cmd = [binary, "-in", input_name, "-log", log_name]
+        if self.mpi_launcher and self.mpi_launcher != "none":
+            launcher = shlex.split(self.mpi_launcher)
+            if shutil.which(launcher[0]) is None:
+                raise DEMRunError(f"MPI launcher {launcher[0]!r} not found on PATH")
+            cmd = [*launcher, "-n", str(self.ranks), *cmd]
+        return cmd
+
+
+def _mpi_environment() -> dict[str, str]:
+    env = dict(os.environ)
+    # Open MPI refuses to start as root unless told; CI and containers run as root.
+    env.setdefault("OMPI_ALLOW_RUN_AS_ROOT", "1")
+    env.setdefault("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
+    env.setdefault("OMPI_MCA_rmaps_base_oversubscribe", "1")
+    return env
+
+
+def run_liggghts(launcher: Launcher, run_dir: Path, stage: str, label: str) -> float:
+    """Run ``in.<stage>`` in ``run_dir``; return wall-clock seconds. Raises :class:`DEMRunError`."""
+    log = Path("logs") / f"{stage}.log"
+    (run_dir / "logs").mkdir(exist_ok=True)
+    screen = run_dir / "logs" / f"{stage}.screen"
+    start = time.perf_counter()
+    with screen.open("w") as out:
+        proc = subprocess.run(
+            launcher.command(f"in.{stage}", str(log)),
+            cwd=run_dir,
+            stdout=out,
+            stderr=subprocess.STDOUT,
+            env=_mpi_environment(),
+            check=False,
+        )
+    seconds = time.perf_counter() - start
+    check_run(f"{label} stage {stage}", run_dir / log, proc.returncode, screen.read_text(errors="replace"))
+    return seconds
+
+
+def read_settled(path: Path) -> pd.DataFrame:
+    """The single snapshot of ``settled.dump`` (columns id type x y z radius mass)."""
+    lines = path.read_text().splitlines()
+    try:
+        header_at = next(i for i, line in enumerate(lines) if line.startswith("ITEM: ATOMS"))
+    except StopIteration:
+        raise DEMRunError(f"{path}: no 'ITEM: ATOMS' section") from None
+    columns = lines[header_at].split()[2:]
+    n_atoms = int(lines[lines.index("ITEM: NUMBER OF ATOMS") + 1])
+    body = lines[header_at + 1 :]
+    if len(body) != n_atoms:
+        raise DEMRunError(f"{path}: expected {n_atoms} atom lines, found {len(body)} (truncated?)")
+    data = np.array([line.split() for line in body], dtype=float)
+    return pd.DataFrame(data, columns=columns)
+
+
+class PlanarShearRun:
+    """One DEM run of a planar shear case (rheometer or shear with gravity)."""
+
+    def __init__(self, config: dict[str, Any], case_name: str, run_id: str, run_dir: Path) -> None:
+        self.config = config
+        self.case_name = case_name
+        self.run_id = run_id
+        self.case = run_case(config["cases"][case_name], run_id)
+        self.mat = config["material"]
+        self.dem = config["dem"]
+        self.run_dir = run_dir
+        self.label = f"DEM run {case_name}/{run_id}"
+        self.design = contact_design(config)
+        self.launcher = Launcher(self.dem["liggghts"], self.dem["mpi_launcher"], self.dem["mpi_ranks"])
+        self.seed = derived_seed(config["seed"], case_name, run_id)
+        #: Normal stress of the top wall (Pa): per run for the rheometer, per case otherwise.
+        self.wall_pressure = run_state(run_id)[1] if case_name == "rheometer" else float(self.case["wall_pressure"])
+        self.state_path = run_dir / "state.json"
+        self.state: dict[str, Any] = {}
+
+    # ----------------------------------------------------------------------------------- state
+    def _load_state(self) -> None:
+        # Only what changes the physics: MPI layout and non-DEM sections may differ on resume.
+        dem = {k: v for k, v in self.config["dem"].items() if k not in ("mpi_ranks", "mpi_launcher", "liggghts")}
+        physics = dem_config(self.config, self.case_name) | {"dem": dem}
+        fingerprint = {"config": physics, "case": self.case_name, "run": self.run_id}
+        if self.state_path.exists():
+            state = json.loads(self.state_path.read_text())
+            if state.get("fingerprint") == fingerprint:
+                self.state = state
+                return
+            # Chunks made with another config cannot be continued: start this run afresh.
+            for item in ("restart", "logs", "dumps", "series"):
+                shutil.rmtree(self.run_dir / item, ignore_errors=True)
+        self.state = {"fingerprint": fingerprint, "chunks": [], "steady": None, "wall_seconds": 0.0}
+
+    def _save_state(self) -> None:
+        tmp = self.state_path.with_suffix(".json.tmp")
+        tmp.write_text(json.dumps(self.state, indent=1))
+        tmp.replace(self.state_path)
+
+    # ------------------------------------------------------------------------------- variables
+    def _base_variables(self) -> dict[str, object]:
+        d = self.mat["d"]
+        n_types = 4
+        return {
+            "Lx": self.case["cell_x"] * d,
+            "Ly": self.case["cell_y"] * d,
+            "skin": 0.1 * d,
+            "youngs_modulus": self.design.youngs_modulus,
+            "poisson_ratio": self.mat["poisson_ratio"],
+            "restitution_matrix": [self.mat["restitution"]] * n_types**2,
+            "friction_matrix": [self.mat["friction"]] * n_types**2,
+            "dt": self.design.dt,
+        }
+
+    def _fill(self) -> None:
+        d, rho = self.mat["d"], self.mat["rho_s"]
+        area = self.case["cell_x"] * self.case["cell_y"] * d**2
+        v_grain = mean_grain_volume(d, self.mat["polydispersity"], self.mat["n_sizes"])
+        lz = self.case["n_grains"] * v_grain / (INSERTION_SOLID_FRACTION * area) + 4.0 * d
+        g_fill = self.case["gravity"] if self.case["gravity"] > 0 else 9.81
+        m_grain = rho * v_grain
+        fall_time = math.sqrt(2.0 * lz / g_fill)
+        # Short chunks: the kinetic energy is tested after each, so settling stops soon after rest.
+        settle_chunk = int(math.ceil(0.5 * fall_time / self.design.dt))
+        sizes = size_classes(d, self.mat["polydispersity"], self.mat["n_sizes"])
+        bottom = random_layer(self.case["cell_x"] * d, self.case["cell_y"] * d, sizes,
+                              np.random.default_rng(derived_seed(self.seed, "bottom_wall")))
+        z_bottom = 0.5 * max(sizes)
+        (self.run_dir / "bottom_wall.in").write_text(layer_include(bottom, 2, z_bottom, rho, first_id=1))
+        top = random_layer(self.case["cell_x"] * d, self.case["cell_y"] * d, sizes,
+                           np.random.default_rng(derived_seed(self.seed, "top_wall")))
+        # Bodies created before the pour (an intruder) take the ids after the bottom wall.
+        n_bodies = self._write_fill_bodies(first_id=len(bottom) + 1, z_bottom=z_bottom)
+        first_top_id = len(bottom) + n_bodies + self.case["n_grains"] + 1
+        (self.run_dir / "top_wall.in").write_text(layer_include(top, 3, "${z_top_wall}", rho, first_id=first_top_id))
+        seeds = [liggghts_seed(self.seed, "size", str(k)) for k in range(self.mat["n_sizes"])]
+        (self.run_dir / "grains.in").write_text(
+            render.grains_include(
+                d, self.mat["polydispersity"], self.mat["n_sizes"], rho, seeds, liggghts_seed(self.seed, "pdd")
+            )
+        )
+        variables = self._base_variables() | {
+            "Lz_box": lz,
+            "z_insert_low": z_bottom + max(sizes),
+            "top_wall_clearance": max(sizes) + 0.01 * d,
+            "n_grains": self.case["n_grains"],
+            "seed_insert": liggghts_seed(self.seed, "insert"),
+            "g_fill": g_fill,
+            "thermo_every": max(1, settle_chunk // 4),
+            "settle_chunk_steps": settle_chunk,
+            "settle_max_chunks": 40,
+            "fill_drag": m_grain / fall_time,
+            "ke_settled": SETTLED_KE_PER_GRAIN * self.case["n_grains"] * m_grain * g_fill * d,
+        }
+        render.render_stage(self.run_dir, "fill", "fill.in", variables)
+        seconds = run_liggghts(self.launcher, self.run_dir, "fill", self.label)
+        ke = printed_value(self.run_dir / "logs" / "fill.log", "SETTLED_KE")
+        if ke > variables["ke_settled"]:
+            raise DEMRunError(
+                f"{self.label}: the poured grains did not settle (kinetic energy {ke:.3g} J > {variables['ke_settled']:.3g} J "
+                f"after {variables['settle_max_chunks']} chunks)"
+            )
+        settled = read_settled(self.run_dir / "settled.dump")
+        flowing = settled[settled["type"] == 1]
+        if len(flowing) != self.case["n_grains"]:
+            raise DEMRunError(f"{self.label}: inserted {len(flowing)} grains, the config asks for {self.case['n_grains']}")
+        # A grain may sit in a hole of the wall layer, but its centre cannot get below the layer's
+        # underside (z = 0) without having passed through it.
+        through = flowing["z"] < z_bottom - 0.5 * max(sizes) + 0.5 * min(sizes)
+        if through.any():
+            raise DEMRunError(f"{self.label}: {int(through.sum())} grains fell through the bottom wall layer")
+        z_top = printed_value(self.run_dir / "logs" / "fill.log", "TOP_WALL_Z")
+        if z_top - z_bottom < MIN_GAP_OVER_D * d:
+            raise DEMRunError(
+                f"{self.label}: only {self.case['n_grains']} grains, too few grains for a bed between the walls "
+                f"({(z_top - z_bottom) / d:.1f} d deep, the minimum is {MIN_GAP_OVER_D:g} d)"
+            )
+        walls = settled[settled["type"] == 3]
+        if len(walls) != len(top) or int(walls["id"].min()) != first_top_id:
+            raise DEMRunError(f"{self.label}: the top wall has {len(walls)} grains (expected {len(top)} from id {first_top_id})")
+        if z_top + max(sizes) > lz:
+            raise DEMRunError(f"{self.label}: the settled bed reaches the top of the box ({z_top:.4g} m of {lz:.4g} m)")
+        self.state["fill"] = {
+            "wall_seconds": seconds,
+            "n_bottom_wall_grains": len(bottom),
+            "n_top_wall_grains": len(top),
+            "wall_coverage": [layer.coverage(self.case["cell_x"] * d, self.case["cell_y"] * d) for layer in (bottom, top)],
+            "settled_gap": z_top - z_bottom,
+            "z_bottom_wall": z_bottom,
+            "z_top_wall": z_top,
+            "settled_ke": ke,
+            "wall_mass": float(np.sum(rho * np.pi * top.diameter**3 / 6.0)),
+        }
+        self.state["wall_seconds"] += seconds
+        self._save_state()
+
+    # ------------------------------------------------------------------------------- shearing
+    def wall_speed(self) -> float:
+        """Top-wall speed (m/s): given, or from the target inertial number of a rheometer run."""
+        if "wall_speed" in self.case:
+            return float(self.case["wall_speed"])
+        target = run_state(self.run_id)[0]
+        shear_rate = target * math.sqrt(self.wall_pressure / self.mat["rho_s"]) / self.mat["d"]
+        return shear_rate * self.state["fill"]["settled_gap"]
+
+    def reference_speed(self) -> float:
+        """Speed (m/s) that sets the chunk length and the kinetic-energy scale: the wall speed.
+
+        Overridden by runs whose wall is at rest (an intruder's control run), which keep the
+        chunk length of the sheared runs they are compared with.
+        """
+        return self.wall_speed()
+
+    def _write_fill_bodies(self, first_id: int, z_bottom: float) -> int:
+        """Hook: write include files for bodies created before the pour; return their atom count.
+
+        ``first_id`` is the id LIGGGHTS gives the first such atom; ``z_bottom`` (m) is the height of
+        the bottom wall's centres. Planar shear has none.
+        """
+        return 0
+
+    def _chunk_variables(self, stage: str) -> dict[str, object]:
+        """Hook: extra template variables of one shear or production chunk (none for planar shear)."""
+        return {}
+
+    def _chunk_plan(self) -> dict[str, int]:
+        v = self.reference_speed()
+        samples = self.dem["series_samples_per_chunk"]
+        duration = self.dem["chunk_strain"] * self.state["fill"]["settled_gap"] / v
+        nevery = max(1, int(round(duration / self.design.dt / samples / 10)))
+        series_every = 10 * nevery
+        chunk_steps = series_every * samples
+        n_prod = max(1, int(math.ceil(self.dem["production_strain"] / self.dem["chunk_strain"])))
+        per_chunk = max(1, int(math.ceil(self.dem["snapshots"] / n_prod)))
+        dump_every = max(1, chunk_steps // per_chunk)
+        while chunk_steps % dump_every:
+            dump_every -= 1
+        return {
+            "chunk_steps": chunk_steps,
+            "series_nevery": nevery,
+            "series_nrepeat": 10,
+            "series_every": series_every,
+            "production_chunks": n_prod,
+            "dump_every": dump_every,
+        }
+
+    def _wall_damping(self) -> float:
+        """Total damping coefficient (N s/m) on the wall's vertical speed: 10 % of critical.
+
+        The bed acts on the wall as a spring of stiffness ``K = E_bed A / h``, the bed modulus
+        estimated from the linearised Hertz stiffness at the design overlap,
+        ``E_bed ~ Z nu k / (pi d)``. Damping ratio 0.1 removes the wall's ringing within a few
+        periods (~1 ms) without resisting the much slower dilation of the bed: at critical damping
+        the drag of a dilating bed on the wall reached twice the load and overlaps 1 % of d.
+        """
+        d = self.mat["d"]
+        e_star = self.design.effective_modulus
+        k_n = 2.0 * e_star * math.sqrt(0.25 * d * self.mat["design_overlap"] * d)
+        e_bed = 2.7 * k_n / (math.pi * d)
+        area = self.case["cell_x"] * self.case["cell_y"] * d**2
+        stiffness = e_bed * area / self.state["fill"]["settled_gap"]
+        return 2.0 * WALL_DAMPING_RATIO * math.sqrt(stiffness * self.state["fill"]["wall_mass"])
+
+    def _run_chunk(self, kind: str, index: int, plan: dict[str, int]) -> dict[str, Any]:
+        stage = f"{kind}_{index:03d}"
+        chunks = self.state["chunks"]
+        restart_in = "fill.restart" if not chunks else chunks[-1]["restart"]
+        restart_out = f"restart/{stage}.restart"
+        (self.run_dir / "restart").mkdir(exist_ok=True)
+        (self.run_dir / "series").mkdir(exist_ok=True)
+        n_wall = self.state["fill"]["n_top_wall_grains"]
+        area = self.case["cell_x"] * self.case["cell_y"] * self.mat["d"] ** 2
+        production = kind == "production"
+        if production:
+            (self.run_dir / "dumps").mkdir(exist_ok=True)
+        variables = self._base_variables() | {
+            "restart_in": restart_in,
+            "restart_out": restart_out + ".tmp",
+            "first_chunk": int(not chunks),
+            "z_bottom_wall": self.state["fill"]["z_bottom_wall"],
+            "z_top_wall": self.state["fill"]["z_top_wall"],
+            "wall_speed": self.wall_speed(),
+            "gravity": self.case["gravity"],
+            "load_per_grain": self.wall_pressure * area / n_wall,
+            "wall_damping_per_grain": self._wall_damping() / n_wall,
+            "delta_column": DELTA_COLUMN,
+            "series_nevery": plan["series_nevery"],
+            "series_nrepeat": plan["series_nrepeat"],
+            "series_every": plan["series_every"],
+            "series_file": f"series/{stage}.txt",
+            "pairsum_file": f"series/pairsum_{stage}.txt",
+            "thermo_every": plan["chunk_steps"] // 4,
+            "chunk_steps": plan["chunk_steps"],
+            "dump_every": plan["dump_every"] if production else 0,
+            "particle_dump": f"dumps/particles_{index:03d}.dump",
+            "contact_dump": f"dumps/contacts_{index:03d}.dump",
+            "contact_columns": [f"c_pgl[{k}]" for k in range(1, len(CONTACT_COLUMNS) + 1)],
+        } | self._chunk_variables(stage)
+        render.render_stage(self.run_dir, stage, "shear.in", variables)
+        seconds = run_liggghts(self.launcher, self.run_dir, stage, self.label)
+        series = read_wall_series(self.run_dir / variables["series_file"])
+        self._check_series(series, stage)
+        (self.run_dir / (restart_out + ".tmp")).replace(self.run_dir / restart_out)
+        record = {"stage": stage, "kind": kind, "restart": restart_out, "wall_seconds": seconds,
+                  "steps": plan["chunk_steps"], "series": variables["series_file"],
+                  "t_start": float(series["time"].iloc[0]), "t_end": float(series["time"].iloc[-1])}
+        if production:
+            record["dumps"] = [variables["particle_dump"], variables["contact_dump"]]
+        chunks.append(record)
+        self.state["wall_seconds"] += seconds
+        self._save_state()
+        return record
+
+    def _check_series(self, series: pd.DataFrame, stage: str) -> None:
+        d = self.mat["d"]
+        v = self.reference_speed()
+        n_flow = self.case["n_grains"]
+        m_grain = self.mat["rho_s"] * mean_grain_volume(d, self.mat["polydispersity"], self.mat["n_sizes"])
+        scale = 0.5 * m_grain * v**2 + self.wall_pressure * d**3
+        ke_ratio = float(series["ke"].max()) / n_flow / scale
+        if ke_ratio > self.dem["max_ke_ratio"]:
+            raise DEMRunError(
+                f"{self.label} stage {stage}: kinetic energy blew up ({ke_ratio:.3g} x (m V^2/2 + P d^3) per grain, "
+                f"limit dem.max_ke_ratio = {self.dem['max_ke_ratio']:g}): time step too large or walls too soft?"
+            )
+        max_overlap = float(series["max_overlap"].max()) / d
+        if max_overlap > self.mat["max_overlap"]:
+            raise DEMRunError(
+                f"{self.label} stage {stage}: contact overlap reached {max_overlap:.3g} d, above the bound "
+                f"material.max_overlap = {self.mat['max_overlap']:g} d (grains too soft for the pressure)"
+            )
+
+    def series(self, kinds: tuple[str, ...] = ("shear", "production")) -> pd.DataFrame:
+        """The wall series of all committed chunks of the given kinds, in time order."""
+        frames = [read_wall_series(self.run_dir / c["series"]) for c in self.state["chunks"] if c["kind"] in kinds]
+        return pd.concat(frames, ignore_index=True)
+
+    def _steady_test(self, window_chunks: list[dict[str, Any]]) -> dict[str, Any]:
+        frames = [read_wall_series(self.run_dir / c["series"]) for c in window_chunks]
+        data = pd.concat(frames, ignore_index=True)
+        depth = self.state["fill"]["settled_gap"]
+        force = drift_test(data["time"], data["ftop_x"], self.dem["steady_force_tol"], float(data["ftop_x"].mean()))
+        height = drift_test(data["time"], data["h_top"], self.dem["steady_height_tol"], depth)
+        return {"force": force.as_dict(), "height": height.as_dict(),
+                "stationary": force.stationary and height.stationary,
+                "t_start": window_chunks[0]["t_start"], "t_end": window_chunks[-1]["t_end"]}
+
+    # ------------------------------------------------------------------------------------ run
+    def run(self) -> dict[str, Any]:
+        """Run (or resume) all stages; return the run.json record."""
+        self.run_dir.mkdir(parents=True, exist_ok=True)
+        geometry = self.case["geometry"]
+        render.copy_templates(geometry, self.run_dir)
+        self._load_state()
+        if "fill" not in self.state:
+            self._fill()
+        plan = self._chunk_plan()
+        window = self.dem["steady_window_chunks"]
+        while self.state["steady"] is None:
+            shear = [c for c in self.state["chunks"] if c["kind"] == "shear"]
+            if len(shear) >= window:
+                test = self._steady_test(shear[-window:])
+                self.state["last_steady_test"] = test
+                if test["stationary"]:
+                    self.state["steady"] = test
+                    self._save_state()
+                    break
+            if len(shear) >= self.dem["max_shear_chunks"]:
+                test = self.state.get("last_steady_test", {})
+                raise DEMRunError(
+                    f"{self.label}: no steady state after {len(shear)} shear chunks (dem.max_shear_chunks); "
+                    f"last drift test: force {test.get('force')}, height {test.get('height')}"
+                )
+            self._run_chunk("shear", len(shear), plan)
+        produced = [c for c in self.state["chunks"] if c["kind"] == "production"]
+        for index in range(len(produced), plan["production_chunks"]):
+            self._run_chunk("production", index, plan)
+        return self._record(plan)
+
+    def pair_force_sum(self, shear: float) -> dict[str, float] | None:
+        """Mean x sum of all contact forces over production (N), relative to ``shear``, the mean
+        top-wall shear force (N); None when a production chunk has no pair-sum file (runs made
+        before it was recorded, the intruder's template)."""
+        production = [c for c in self.state["chunks"] if c["kind"] == "production"]
+        files = [self.run_dir / "series" / f"pairsum_{c['stage']}.txt" for c in production]
+        if not production or not all(f.is_file() for f in files):
+            return None
+        sums = pd.concat([read_wall_series(f, PAIRSUM_COLUMNS) for f in files], ignore_index=True)
+        mean_x = float(sums["fsum_x"].mean())
+        return {"mean_x": mean_x, "mean_y": float(sums["fsum_y"].mean()),
+                "over_top_shear_force": mean_x / abs(shear) if shear else float("nan")}
+
+    def _record(self, plan: dict[str, int]) -> dict[str, Any]:
+        production = [c for c in self.state["chunks"] if c["kind"] == "production"]
+        prod_series = self.series(("production",))
+        depth = self.state["fill"]["settled_gap"]
+        prod_force = drift_test(prod_series["time"], prod_series["ftop_x"], self.dem["steady_force_tol"], float(prod_series["ftop_x"].mean()))
+        prod_height = drift_test(prod_series["time"], prod_series["h_top"], self.dem["steady_height_tol"], depth)
+        sizes = size_classes(self.mat["d"], self.mat["polydispersity"], self.mat["n_sizes"])
+        return {
+            "format_version": RUN_FORMAT_VERSION,
+            "case": self.case_name,
+            "run": self.run_id,
+            "geometry": self.case["geometry"],
+            "particle_count": self.case["n_grains"] + self.state["fill"]["n_bottom_wall_grains"] + self.state["fill"]["n_top_wall_grains"],
+            "flowing_grains": self.case["n_grains"],
+            "wall_grains": [self.state["fill"]["n_bottom_wall_grains"], self.state["fill"]["n_top_wall_grains"]],
+            "wall_coverage": self.state["fill"]["wall_coverage"],
+            "diameters": sizes,
+            "d": self.mat["d"],
+            "density": self.mat["rho_s"],
+            "friction": self.mat["friction"],
+            "restitution": self.mat["restitution"],
+            "poisson_ratio": self.mat["poisson_ratio"],
+            "youngs_modulus": self.design.youngs_modulus,
+            "stiffness_rule": self.design.as_dict(),
+            "time_step": self.design.dt,
+            "wall_speed": self.wall_speed(),
+            "wall_pressure": self.wall_pressure,
+            "gravity": self.case["gravity"],
+            "cell": [self.case["cell_x"] * self.mat["d"], self.case["cell_y"] * self.mat["d"]],
+            "settled_gap": depth,
+            "steps": int(sum(c["steps"] for c in self.state["chunks"])),
+            "shear_chunks": sum(1 for c in self.state["chunks"] if c["kind"] == "shear"),
+            "production_chunks": len(production),
+            "chunk_steps": plan["chunk_steps"],
+            "dump_every": plan["dump_every"],
+            "wall_clock_seconds": self.state["wall_seconds"],
+            "mpi_ranks": self.dem["mpi_ranks"],
+            "mpi_launcher": self.dem["mpi_launcher"],
+            "seed": self.seed,
+            "steady_state_window": [self.state["steady"]["t_start"], production[-1]["t_end"]],
+            "steady_state_test": self.state["steady"],
+            "production_window": [production[0]["t_start"], production[-1]["t_end"]],
+            "production_drift": {"force": prod_force.as_dict(), "height": prod_height.as_dict()},
+            "pair_force_sum": self.pair_force_sum(float(prod_series["ftop_x"].mean())),
+            "max_overlap_over_d": float(self.series()["max_overlap"].max() / self.mat["d"]),
+            "particle_dumps": [c["dumps"][0] for c in production],
+            "contact_dumps": [c["dumps"][1] for c in production],
+            "contact_columns": list(CONTACT_COLUMNS),
+            "provenance": provenance(self.config),
+        }

@@ -1,0 +1,386 @@
+"""Fast readers of LAMMPS/LIGGGHTS text dumps: ``dump custom`` particle files, ``dump local`` contacts.
+
+A dump file is a sequence of snapshots, each::
+
+    ITEM: TIMESTEP / <step> / ITEM: NUMBER OF ATOMS|ENTRIES / <n> /
+    ITEM: BOX BOUNDS <bx> <by> <bz> / 3 lines "lo hi" / ITEM: ATOMS|ENTRIES <names...> / n lines
+
+Columns are found by their header names, never by position. Particle files need positions,
+velocities, radius (or diameter) and mass; contact files need both positions, the force on
+particle 1 and the periodic flag. ``dump local`` cannot name its columns in LIGGGHTS, so generic
+``c_ID[k]`` names are mapped to physical names by a list (default :data:`CONTACT_COLUMNS`, the
+order of ``compute pair/gran/local pos id force contactPoint delta``, also stored in run.json
+``contact_columns``); files whose headers already carry physical names are read as they are.
+
+Anything else fails with :class:`DumpError` naming the file and the line.
+"""
+from __future__ import annotations
+
+import mmap
+import os
+import re
+from collections.abc import Mapping, Sequence
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from pipeline.dumps import fastparse
+
+#: Physical names of the 16 pair/gran/local outputs ``pos id force contactPoint delta`` as LIGGGHTS
+#: orders them (pos 6, id 3, force 3, delta 1, contactPoint 3). ``f*`` is the force on particle 1.
+CONTACT_COLUMNS: tuple[str, ...] = (
+    "x1", "y1", "z1", "x2", "y2", "z2", "id1", "id2", "periodic",
+    "fx", "fy", "fz", "delta", "cx", "cy", "cz",
+)
+#: Columns the coarse-graining needs from a particle dump (after synonyms are resolved).
+PARTICLE_REQUIRED: tuple[str, ...] = ("x", "y", "z", "vx", "vy", "vz", "radius", "mass")
+#: Columns the coarse-graining needs from a contact dump.
+CONTACT_REQUIRED: tuple[str, ...] = ("x1", "y1", "z1", "x2", "y2", "z2", "fx", "fy", "fz")
+
+#: Other spellings accepted for the physical contact names (LAMMPS-style and common aliases).
+CONTACT_SYNONYMS: dict[str, str] = {
+    "pos1x": "x1", "pos1y": "y1", "pos1z": "z1", "pos2x": "x2", "pos2y": "y2", "pos2z": "z2",
+    "xi": "x1", "yi": "y1", "zi": "z1", "xj": "x2", "yj": "y2", "zj": "z2",
+    "x_i": "x1", "y_i": "y1", "z_i": "z1", "x_j": "x2", "y_j": "y2", "z_j": "z2",
+    "patom1": "id1", "patom2": "id2", "idi": "id1", "idj": "id2", "id_i": "id1", "id_j": "id2",
+    "f_x": "fx", "f_y": "fy", "f_z": "fz", "forcex": "fx", "forcey": "fy", "forcez": "fz",
+    "fix": "fx", "fiy": "fy", "fiz": "fz",
+    "contactpointx": "cx", "contactpointy": "cy", "contactpointz": "cz",
+    "overlap": "delta",
+}
+_NONBLANK = re.compile(rb"\S")
+_GENERIC = re.compile(r"^[cfv]_[A-Za-z0-9_]+\[(\d+)\]$")
+
+
+class DumpError(ValueError):
+    """A dump file is missing, truncated, malformed or lacks a needed column."""
+
+
+@dataclass
+class Dump:
+    """All snapshots of one or more dump files, rows concatenated.
+
+    ``data[offsets[s]:offsets[s+1]]`` are the rows of snapshot ``s``; ``boxes[s]`` is the box
+    ``[[xlo, xhi], [ylo, yhi], [zlo, zhi]]`` (m); ``boundary`` the LAMMPS boundary flags.
+    """
+
+    kind: str  # "atoms" (dump custom) or "entries" (dump local)
+    columns: tuple[str, ...]
+    timesteps: np.ndarray
+    boxes: np.ndarray
+    boundary: tuple[str, ...]
+    offsets: np.ndarray
+    data: np.ndarray
+    sources: tuple[str, ...] = field(default_factory=tuple)
+
+    def __len__(self) -> int:
+        return int(self.timesteps.size)
+
+    @property
+    def counts(self) -> np.ndarray:
+        """Rows per snapshot."""
+        return np.diff(self.offsets)
+
+    def index(self, name: str) -> int:
+        try:
+            return self.columns.index(name)
+        except ValueError:
+            raise DumpError(f"{', '.join(self.sources)}: no column {name!r} (columns: {' '.join(self.columns)})") from None
+
+    def column(self, name: str) -> np.ndarray:
+        """All rows of one column (a strided view)."""
+        return self.data[:, self.index(name)]
+
+    def rows(self, s: int) -> np.ndarray:
+        """The rows of snapshot ``s``."""
+        return self.data[self.offsets[s]:self.offsets[s + 1]]
+
+    def take(self, snapshots: np.ndarray) -> Dump:
+        """A new Dump with the given snapshot indices, in that order."""
+        snapshots = np.asarray(snapshots, dtype=np.int64)
+        counts = self.counts[snapshots]
+        offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+        rows = np.concatenate([np.arange(self.offsets[s], self.offsets[s + 1]) for s in snapshots]) if snapshots.size else np.zeros(0, np.int64)
+        return Dump(self.kind, self.columns, self.timesteps[snapshots], self.boxes[snapshots], self.boundary,
+                    offsets, self.data[rows], self.sources)
+
+
+def shift_periodic_x(dump: Dump, snapshots: np.ndarray, shifts: np.ndarray, columns: Sequence[str]) -> Dump:
+    """The given snapshots of ``dump``, with the named x columns moved by each snapshot's shift (m)
+    and wrapped back into the periodic box."""
+    part = dump.take(snapshots)
+    data = part.data.copy()
+    per_row = np.repeat(np.asarray(shifts, dtype=float), part.counts)
+    lo = np.repeat(part.boxes[:, 0, 0], part.counts)
+    length = np.repeat(part.boxes[:, 0, 1] - part.boxes[:, 0, 0], part.counts)
+    for name in columns:
+        i = part.index(name)
+        data[:, i] = lo + np.mod(data[:, i] + per_row - lo, length)
+    return replace(part, data=data)
+
+
+@dataclass
+class _Block:
+    timestep: int
+    n: int
+    box: np.ndarray
+    start: int  # byte offset of the first data line
+    stop: int  # byte offset of the next ITEM: (or end of file)
+    line: int  # 1-based line number of the first data line
+
+
+class _Lines:
+    """Header-line cursor over the raw bytes, tracking line numbers for messages."""
+
+    def __init__(self, raw: bytes | mmap.mmap, path: Path) -> None:
+        self.raw, self.path, self.pos, self.line = raw, path, 0, 1
+
+    def fail(self, message: str, line: int | None = None) -> DumpError:
+        return DumpError(f"{self.path}:{self.line if line is None else line}: {message}")
+
+    def next(self, what: str) -> str:
+        if self.pos >= len(self.raw):
+            raise self.fail(f"file ends where {what} was expected (truncated?)")
+        end = self.raw.find(b"\n", self.pos)
+        end = len(self.raw) if end < 0 else end
+        text = self.raw[self.pos:end].decode("ascii", errors="replace").strip()
+        # Never past the end: a last line without its newline must leave the data blocks inside the file.
+        self.pos, self.line = min(end + 1, len(self.raw)), self.line + 1
+        return text
+
+    def expect(self, prefix: str) -> str:
+        text = self.next(f"'{prefix}'")
+        if not text.startswith(prefix):
+            self.line -= 1
+            raise self.fail(f"expected '{prefix}', found {text[:60]!r}")
+        return text[len(prefix):].strip()
+
+    def number(self, what: str, kind: type) -> float | int:
+        text = self.next(what)
+        try:
+            value = kind(text.split()[0]) if kind is float else int(text)
+        except (ValueError, IndexError):
+            self.line -= 1
+            raise self.fail(f"expected {what}, found {text[:60]!r}") from None
+        return value
+
+
+def _scan(raw: bytes | mmap.mmap, path: Path) -> tuple[str, tuple[str, ...], tuple[str, ...], list[_Block]]:
+    """Read every header; return kind, column names, boundary flags and the data blocks."""
+    cur = _Lines(raw, path)
+    kind = ""
+    names: tuple[str, ...] = ()
+    boundary: tuple[str, ...] = ()
+    blocks: list[_Block] = []
+    while _NONBLANK.search(raw, cur.pos):
+        cur.expect("ITEM: TIMESTEP")
+        step = int(cur.number("a timestep", int))
+        count_line = cur.expect("ITEM: NUMBER OF")
+        this_kind = {"ATOMS": "atoms", "ENTRIES": "entries"}.get(count_line)
+        if this_kind is None:
+            cur.line -= 1
+            raise cur.fail(f"unknown 'ITEM: NUMBER OF {count_line}' (expected ATOMS or ENTRIES)")
+        n = int(cur.number("a row count", int))
+        if n < 0:
+            raise cur.fail(f"negative row count {n}", cur.line - 1)
+        bounds = cur.expect("ITEM: BOX BOUNDS").split()
+        if len(bounds) > 3:
+            raise cur.fail("triclinic box (tilt factors) is not supported", cur.line - 1)
+        box = np.empty((3, 2))
+        for axis in range(3):
+            text = cur.next("a box bound line")
+            try:
+                box[axis] = [float(w) for w in text.split()[:2]]
+                if len(text.split()) != 2:
+                    raise ValueError
+            except ValueError:
+                raise cur.fail(f"expected 'lo hi' box bounds, found {text[:60]!r}", cur.line - 1) from None
+        header = cur.expect(f"ITEM: {'ATOMS' if this_kind == 'atoms' else 'ENTRIES'}").split()
+        if not header:
+            raise cur.fail("no column names in the header", cur.line - 1)
+        if not blocks:
+            kind, names, boundary = this_kind, tuple(header), tuple(bounds)
+        elif this_kind != kind or tuple(header) != names:
+            raise cur.fail("columns differ from the first snapshot of the file", cur.line - 1)
+        stop = raw.find(b"ITEM:", cur.pos)
+        stop = len(raw) if stop < 0 else stop
+        blocks.append(_Block(step, n, box, cur.pos, stop, cur.line))
+        cur.pos, cur.line = stop, cur.line + n
+    if not blocks:
+        raise DumpError(f"{path}:1: no snapshot in the file")
+    return kind, names, boundary, blocks
+
+
+def default_threads() -> int:
+    """Parser threads: the cores this process may use, at most 4."""
+    try:
+        return max(1, min(4, len(os.sched_getaffinity(0))))
+    except AttributeError:  # pragma: no cover - not on Linux
+        return max(1, min(4, os.cpu_count() or 1))
+
+
+def read_dump(path: str | Path, threads: int | None = None) -> Dump:
+    """Read every snapshot of one text dump, column names as in the file header."""
+    path = Path(path)
+    if not path.is_file():
+        raise DumpError(f"{path}: dump file not found")
+    if path.stat().st_size == 0:
+        raise DumpError(f"{path}:1: empty file")
+    # A read-only map: pages are read as the parser threads reach them, overlapping I/O and parsing.
+    with open(path, "rb") as handle:
+        raw = mmap.mmap(handle.fileno(), 0, access=mmap.ACCESS_READ)
+    try:
+        return _read_mapped(raw, path, threads)
+    finally:
+        raw.close()
+
+
+def _read_mapped(raw: mmap.mmap, path: Path, threads: int | None) -> Dump:
+    kind, names, boundary, blocks = _scan(raw, path)
+    ncols = len(names)
+    counts = np.array([b.n for b in blocks], dtype=np.int64)
+    offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    data = np.empty((int(offsets[-1]), ncols), dtype=np.float64)
+
+    def parse(i: int) -> None:
+        block = blocks[i]
+        try:
+            _, end = fastparse.parse_block(raw, block.start, block.stop, block.n, ncols,
+                                           out=data[offsets[i]:offsets[i + 1]])
+        except fastparse.BlockError as err:
+            line = block.line + err.row
+            if err.code == 5:
+                raise DumpError(f"{path}:{line}: snapshot at step {block.timestep} ends after {err.row} of "
+                                f"{block.n} lines (truncated file?)") from None
+            raise DumpError(f"{path}:{line}: {err}") from None
+        if raw[end:block.stop].strip():
+            raise DumpError(f"{path}:{block.line + block.n}: more lines than the {block.n} announced "
+                            f"for step {block.timestep}")
+
+    workers = threads or default_threads()
+    if workers > 1 and len(blocks) > 1:
+        with ThreadPoolExecutor(max_workers=workers) as pool:
+            list(pool.map(parse, range(len(blocks))))
+    else:
+        for i in range(len(blocks)):
+            parse(i)
+    # LIGGGHTS ends every line with a newline. A last line without one was cut while being written:
+    # a cut inside its last number would otherwise parse as a different, valid number.
+    if raw[len(raw) - 1:] != b"\n":
+        last_line = raw[:].count(b"\n") + 1
+        raise DumpError(f"{path}:{last_line}: the file ends inside a line (truncated?)")
+    return Dump(kind, names, np.array([b.timestep for b in blocks], dtype=np.int64),
+                np.stack([b.box for b in blocks]), boundary, offsets, data, (str(path),))
+
+
+def concat(dumps: Sequence[Dump]) -> Dump:
+    """Join dumps in time, dropping repeated timesteps (consecutive chunks both dump their boundary)."""
+    if not dumps:
+        raise DumpError("no dump files given")
+    first = dumps[0]
+    for other in dumps[1:]:
+        if other.columns != first.columns or other.kind != first.kind:
+            raise DumpError(f"{other.sources[0]}: columns differ from {first.sources[0]}")
+    steps = np.concatenate([d.timesteps for d in dumps])
+    _, keep = np.unique(steps, return_index=True)  # first occurrence of each step, in step order
+    offsets = [0]
+    for d in dumps:
+        offsets.append(offsets[-1] + d.data.shape[0])
+    joined = Dump(first.kind, first.columns, steps, np.concatenate([d.boxes for d in dumps]), first.boundary,
+                  np.concatenate([[0]] + [d.offsets[1:] + o for d, o in zip(dumps, offsets[:-1])]).astype(np.int64),
+                  np.concatenate([d.data for d in dumps]) if len(dumps) > 1 else first.data,
+                  tuple(s for d in dumps for s in d.sources))
+    if keep.size == steps.size and np.all(np.diff(steps) > 0):
+        return joined
+    return joined.take(keep)
+
+
+def _rename(dump: Dump, names: tuple[str, ...]) -> Dump:
+    if len(set(names)) != len(names):
+        raise DumpError(f"{dump.sources[0]}: repeated column names {' '.join(names)}")
+    return Dump(dump.kind, names, dump.timesteps, dump.boxes, dump.boundary, dump.offsets, dump.data, dump.sources)
+
+
+def _require(dump: Dump, required: Sequence[str], hint: str) -> None:
+    missing = [c for c in required if c not in dump.columns]
+    if missing:
+        raise DumpError(f"{dump.sources[0]}:{_header_line(dump)}: missing column(s) {' '.join(missing)} "
+                        f"(header: {' '.join(dump.columns)}); {hint}")
+
+
+def _header_line(dump: Dump) -> int:
+    return 9  # the column header of the first snapshot is always line 9
+
+
+def particle_view(dump: Dump) -> Dump:
+    """Resolve particle-column spellings: ``xu``/``xs`` to ``x``, ``diameter`` to ``radius``."""
+    if dump.kind != "atoms":
+        raise DumpError(f"{dump.sources[0]}:3: not a particle dump ('ITEM: NUMBER OF ATOMS' expected)")
+    names = list(dump.columns)
+    data = dump.data
+    for axis, a in enumerate("xyz"):
+        if a in names:
+            continue
+        if f"{a}u" in names:
+            names[names.index(f"{a}u")] = a
+        elif f"{a}s" in names:
+            # Scaled coordinates: x = lo + xs (hi - lo), per snapshot.
+            j = names.index(f"{a}s")
+            data = data.copy() if data is dump.data else data
+            lo = np.repeat(dump.boxes[:, axis, 0], dump.counts)
+            hi = np.repeat(dump.boxes[:, axis, 1], dump.counts)
+            data[:, j] = lo + data[:, j] * (hi - lo)
+            names[j] = a
+    if "radius" not in names and "diameter" in names:
+        j = names.index("diameter")
+        data = data.copy() if data is dump.data else data
+        data[:, j] *= 0.5
+        names[j] = "radius"
+    out = _rename(Dump(dump.kind, dump.columns, dump.timesteps, dump.boxes, dump.boundary, dump.offsets, data,
+                       dump.sources), tuple(names))
+    _require(out, PARTICLE_REQUIRED, "a particle dump needs x y z vx vy vz radius mass")
+    return out
+
+
+def contact_view(dump: Dump, names: Sequence[str] | Mapping[str, str] | None = None) -> Dump:
+    """Give the columns of a contact dump their physical names.
+
+    ``names``: the physical name of the k-th generic column ``c_ID[k]`` (a sequence, default
+    :data:`CONTACT_COLUMNS`) or an explicit {header name: physical name} mapping. Headers that
+    are already physical (``x1 ... fx ...`` or a synonym in :data:`CONTACT_SYNONYMS`) need none.
+    """
+    if dump.kind != "entries":
+        raise DumpError(f"{dump.sources[0]}:3: not a contact dump ('ITEM: NUMBER OF ENTRIES' expected)")
+    out: list[str] = []
+    for header in dump.columns:
+        if isinstance(names, Mapping) and header in names:
+            out.append(names[header])
+            continue
+        match = _GENERIC.match(header)
+        if match:
+            table = CONTACT_COLUMNS if names is None or isinstance(names, Mapping) else tuple(names)
+            k = int(match.group(1))
+            if not 1 <= k <= len(table):
+                raise DumpError(f"{dump.sources[0]}:9: column {header} has no physical name "
+                                f"(mapping has {len(table)} names)")
+            out.append(table[k - 1])
+        else:
+            out.append(CONTACT_SYNONYMS.get(header.lower(), header.lower() if header.lower() in CONTACT_COLUMNS else header))
+    view = _rename(dump, tuple(out))
+    _require(view, CONTACT_REQUIRED, "pass the column mapping of generic c_ID[k] names (contact_columns)")
+    return view
+
+
+def read_particles(paths: Sequence[str | Path] | str | Path, threads: int | None = None) -> Dump:
+    """Read particle dumps (one or several chunks, duplicate boundary steps dropped)."""
+    paths = [paths] if isinstance(paths, (str, Path)) else list(paths)
+    return particle_view(concat([read_dump(p, threads) for p in paths]))
+
+
+def read_contacts(paths: Sequence[str | Path] | str | Path,
+                  names: Sequence[str] | Mapping[str, str] | None = None, threads: int | None = None) -> Dump:
+    """Read contact dumps with physical column names (see :func:`contact_view`)."""
+    paths = [paths] if isinstance(paths, (str, Path)) else list(paths)
+    return contact_view(concat([read_dump(p, threads) for p in paths]), names)

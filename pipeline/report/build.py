@@ -1,0 +1,485 @@
+"""Write the comparison report ``report.html`` (self-contained) and its figures as PNG files.
+
+Reads only what the stages wrote (run.json, wall series, fields, params.json, model solutions,
+scores.csv, stability tables), never recomputes them.
+
+Usage: ``python -m pipeline.report.build --config RESULTS/config.effective.json --out RESULTS/report.html
+[--figures RESULTS/figures]``
+"""
+from __future__ import annotations
+
+import argparse
+import html
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import matplotlib.colors as mcolors
+import matplotlib.pyplot as plt
+import numpy as np
+import pandas as pd
+import xarray as xr
+
+from pipeline.common.formats import open_fields
+from pipeline.common import atomic
+from pipeline.common.config import dem_runs, load_config
+from pipeline.report.html import figure_html, page, table_html
+from pipeline.common.provenance import software_versions
+from pipeline.common.layout import convergence_cases, convergence_paths, fields_paths, intruder_cases, model_names, scored_cases
+from pipeline.dem.wall_series import read_wall_series
+
+MODEL_STYLE = {
+    "local_mu_i": ("tab:blue", "-"),
+    "critical_state": ("tab:orange", "--"),
+    "cosserat": ("tab:green", "-."),
+    "ngf": ("tab:red", "-"),
+    "volume_averaged": ("tab:purple", ":"),
+}
+HEADLINE_METRICS = ("log_velocity_rmse", "velocity_rmse_rel", "decay_length_rel_err", "shear_band_width_rel_err", "nu_rmse", "mu_rmse")
+
+
+def load_runs(config: dict[str, Any]) -> list[dict[str, Any]]:
+    """The run.json record of every DEM run, with its folder under ``_dir``."""
+    root = Path(config["output_root"])
+    runs = []
+    for case, run in dem_runs(config):
+        run_dir = root / "dem" / case / run
+        path = run_dir / "run.json"
+        if not path.exists():
+            raise FileNotFoundError(f"{path}: DEM run {case}/{run} has no run.json (did the dem rule finish?)")
+        record = json.loads(path.read_text())
+        record["_dir"] = run_dir
+        runs.append(record)
+    return runs
+
+
+class Figures:
+    """Collects figures: embeds each in the page and saves it as PNG."""
+
+    def __init__(self, folder: Path | None) -> None:
+        self.folder = folder
+        if folder is not None:
+            folder.mkdir(parents=True, exist_ok=True)
+
+    def add(self, name: str, fig: plt.Figure, caption: str) -> str:
+        if self.folder is not None:
+            fig.savefig(self.folder / f"{name}.png", dpi=110, bbox_inches="tight")
+        return figure_html(fig, caption)
+
+
+# ------------------------------------------------------------------------------------ scores
+def score_section(root: Path, figures: Figures, nonlocal_where: str) -> str:
+    scores = pd.read_csv(root / "scores.csv")
+    parts = ["<h2>Scores against DEM</h2>",
+             "<p class='note'>Each value is the metric between the model and the mean of the DEM replicas; "
+             "<b>dem_noise</b> is the same metric between two replicas: a model whose value is within the "
+             "noise cannot be told apart from the DEM. Green: within 2x the noise; red: more than 10x the noise "
+             "or no creep predicted (inf). Non-local lengths were fitted on "
+             f"<b>{html.escape(nonlocal_where)}</b>: their scores on that case are calibration quality, not "
+             "independent predictions.</p>"]
+    for case, frame in scores.groupby("case"):
+        wide = frame.pivot(index="model", columns="metric", values="value")
+        noise = frame.groupby("metric")["dem_noise"].first()
+        cols = [m for m in HEADLINE_METRICS if m in wide.columns]
+        wide = wide[cols]
+        table = wide.reset_index()
+        styles = []
+        for _, row in table.iterrows():
+            row_style = [""]
+            for m in cols:
+                v, n = row[m], noise.get(m, float("nan"))
+                if not np.isfinite(v) or (np.isfinite(n) and n > 0 and v > 10 * n):
+                    row_style.append("background:#f6c6c6")
+                elif np.isfinite(n) and v <= 2 * n:
+                    row_style.append("background:#c8eec8")
+                else:
+                    row_style.append("")
+            styles.append(row_style)
+        noise_row = pd.DataFrame([["DEM noise (replica vs replica)"] + [noise.get(m, float("nan")) for m in cols]],
+                                 columns=["model"] + cols)
+        parts.append(f"<h3>{html.escape(case)}</h3>")
+        parts.append(table_html(pd.concat([table, noise_row], ignore_index=True), cell_style=styles + [[""] * (len(cols) + 1)]))
+        cost = frame.groupby("model")[["solve_seconds", "n_grid"]].first().reset_index()
+        parts.append(table_html(cost))
+    return "\n".join(parts)
+
+
+def pareto_section(root: Path, figures: Figures) -> str:
+    scores = pd.read_csv(root / "scores.csv")
+    table = pd.read_csv(root / "cost_accuracy.csv")
+    sweep = table[table.sweep == "grid"]
+    tolerance = table[table.sweep == "tolerance"]
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4))
+    for ax, metric in zip(axes, ("velocity_rmse_rel", "log_velocity_rmse")):
+        for (case, model), sub in sweep.groupby(["case", "model"]):
+            sub = sub[np.isfinite(sub[metric])]
+            if sub.empty:
+                continue
+            color, ls = MODEL_STYLE.get(model, ("k", "-"))
+            ax.plot(sub.solve_seconds * 1e3, sub[metric], color=color, ls=ls, marker="o", ms=3, label=f"{model} ({case})")
+        noise = scores[scores.metric == metric]["dem_noise"].dropna()
+        if len(noise):
+            ax.axhline(noise.iloc[0], color="grey", ls="--", lw=1, label="DEM noise floor")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("solve time (ms), grids of 16 to 1024 nodes")
+        ax.set_ylabel(metric.replace("_", " ") + " against DEM")
+        ax.legend(fontsize=7)
+    no_velocity = sorted(set(sweep.model) - set(sweep.dropna(subset=["velocity_rmse_rel"]).model))
+    missing = (f" Not drawn: {', '.join(no_velocity)} (no finite error on any grid)." if no_velocity else "")
+    # Empty error cells read back as NaN (pandas 3 keeps them missing even as str).
+    errors = sweep["error"].where(sweep["error"].notna(), "").astype(str)
+    failures = sweep[errors != ""]
+    failed = "".join(f" {r.model} fails on {r.n_grid} nodes ({r.error[:80]})." for r in failures.itertuples())
+    return ("<h2>Accuracy against cost</h2>"
+            + figures.add("pareto", fig, "Error against the DEM of each model over a sweep of grid resolution, "
+                          "against its solve time (best of 3). Points towards the lower left are better.")
+            + f"<p>{html.escape(cheapest_sentence(scores) + missing + failed)}</p>"
+            + "<h3>Solver tolerance</h3><p class='note'>The same errors and solve times on "
+            f"{int(tolerance.n_grid.iloc[0]) if len(tolerance) else 0} nodes, against the solver's tolerance (the "
+            "relative residual of the wall condition or of the yield iteration it stops at).</p>"
+            + table_html(tolerance[["case", "model", "tolerance", "solve_seconds", "velocity_rmse_rel",
+                                    "log_velocity_rmse", "error"]].round(6)))
+
+
+def dem_convergence_section(root: Path, config: dict[str, Any], figures: Figures) -> str:
+    """Field noise of the DEM against core-seconds: averaging time and system size."""
+    frames = [pd.read_csv(p) for p in map(Path, convergence_paths(config))]
+    table = pd.concat(frames, ignore_index=True)
+    metrics_drawn = ("velocity_rmse_rel", "log_velocity_rmse", "nu_rmse")
+    fig, axes = plt.subplots(1, len(metrics_drawn), figsize=(15, 4))
+    for ax, metric in zip(axes, metrics_drawn):
+        for (case, study), sub in table[table.metric == metric].groupby(["case", "study"]):
+            sub = sub.sort_values("core_seconds")
+            marker = "o" if study == "averaging_time" else "s"
+            ax.plot(sub.core_seconds, sub.noise, marker=marker, label=f"{case}: {study.replace('_', ' ')}")
+            if study == "system_size":
+                for r in sub.itertuples():
+                    ax.annotate(f"{r.cell_over_d:g} d", (r.core_seconds, r.noise), fontsize=7,
+                                textcoords="offset points", xytext=(4, 4))
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("core-seconds of one DEM replica (s)")
+        ax.set_ylabel(f"{metric.replace('_', ' ')} between replicas (-)")
+        ax.legend(fontsize=7)
+    sentences = []
+    for (case, metric), sub in table[table.metric.isin(metrics_drawn)].groupby(["case", "metric"]):
+        best = sub.loc[sub.noise_per_sqrt_cost.idxmin()]
+        how = (f"averaging {best.averaging_fraction:.2g} of the production" if best.study == "averaging_time"
+               else f"a {best.cell_over_d:g} d cell")
+        sentences.append(f"{case}, {metric}: the cheapest noise per sqrt(core-second) comes from {how} "
+                         f"(noise {best.noise:.3g} for {best.core_seconds:.0f} core-s).")
+    shown = table[table.metric.isin(metrics_drawn)][["case", "study", "cell_over_d", "n_grains", "n_replicas",
+                                                      "averaging_strain", "core_seconds", "metric", "noise"]]
+    return ("<h2>DEM noise against cost</h2><p class='note'>Noise: the score metric between independent replicas "
+            "(the floor of the score table). Averaging time: the replicas re-averaged over the first part of their "
+            "production; system size: replicas in square cells of other lengths with the same grains per area.</p>"
+            + figures.add("dem_convergence", fig, "DEM field noise against the core-seconds of one replica; circles: "
+                          "averaging time (default cell), squares: system size (whole production).")
+            + f"<p>{html.escape(' '.join(sentences))}</p>" + table_html(shown.round(4)))
+
+
+def cheapest_sentence(scores: pd.DataFrame, metric: str = "velocity_rmse_rel", factor: float = 2.0) -> str:
+    """Per case: the cheapest model within ``factor`` of the best accuracy on ``metric``."""
+    out = []
+    for case, frame in scores[scores.metric == metric].groupby("case"):
+        finite = frame[np.isfinite(frame.value)]
+        if finite.empty:
+            continue
+        best = finite.value.min()
+        ok = finite[finite.value <= factor * best].sort_values("solve_seconds")
+        row = ok.iloc[0]
+        out.append(f"{case}: the cheapest model within {factor:g}x of the best {metric} ({best:.3g}) is "
+                   f"{row.model} ({row.value:.3g}, {row.solve_seconds * 1e3:.2f} ms).")
+    return " ".join(out)
+
+
+# ---------------------------------------------------------------------------------- profiles
+def profiles_section(root: Path, config: dict[str, Any], figures: Figures) -> str:
+    parts = ["<h2>Profiles</h2>"]
+    for case in scored_cases(config):
+        reps = [open_fields(Path(f)) for f in fields_paths(config, case)]
+        z0 = float(reps[0].attrs["z_bottom_wall"])
+        d = float(reps[0].attrs["d"])
+        V = float(reps[0].attrs["wall_speed"])
+        fig, axes = plt.subplots(1, 4, figsize=(15, 5), sharey=True)
+        for k, ds in enumerate(reps):
+            zz = (ds.z.values - z0) / d
+            for ax, (name, scale) in zip(axes, (("u_x", V), ("u_x", V), ("nu", 1.0), ("mu", 1.0))):
+                y, e = ds[name].values / scale, ds[f"{name}_err"].values / scale
+                ax.plot(y, zz, color="k", lw=1, label="DEM replicas" if k == 0 else None)
+                ax.fill_betweenx(zz, y - e, y + e, color="k", alpha=0.15)
+        for model in model_names(config):
+            path = root / "models" / case / f"{model}.nc"
+            if not path.exists():
+                continue
+            sol = xr.open_dataset(path)
+            zz = (sol.z.values - z0) / d
+            color, ls = MODEL_STYLE.get(model, ("grey", "-"))
+            for ax, (name, scale) in zip(axes, (("u_x", V), ("u_x", V), ("nu", 1.0), ("mu", 1.0))):
+                if name in sol:
+                    ax.plot(sol[name].values / scale, zz, color=color, ls=ls, lw=1.5, label=model)
+        axes[1].set_xscale("log")
+        axes[1].set_xlim(1e-7, 2)
+        axes[0].set_xlabel("u_x / V (-)")
+        axes[1].set_xlabel("u_x / V (-), log axis")
+        axes[2].set_xlabel("solid fraction nu (-)")
+        axes[3].set_xlabel("stress ratio mu = |sigma_xz| / p (-)")
+        axes[0].set_ylabel("height above the bottom wall, z / d (-)")
+        axes[0].legend(fontsize=7)
+        parts.append(figures.add("profiles" if case == scored_cases(config)[0] else f"profiles_{case}", fig,
+                                 f"{case}: DEM (black, one line per replica, band = standard error) and every model."))
+    return "\n".join(parts)
+
+
+# ---------------------------------------------------------------------------------- intruder
+def intruder_section(root: Path, config: dict[str, Any], figures: Figures) -> str:
+    parts = ["<h2>Intruder: secondary rheology</h2>",
+             "<p class='note'>A rod along y (3 d across) pushed along +x by a constant force below its yield force, "
+             "held at its depth, in the creeping zone of shear with gravity. Control: the same push with the "
+             "top wall at rest. Arrested runs (speed within 2 standard errors of zero, or moved under 0.1 d) "
+             "are drawn at the bottom, not as speeds. Critical state predicts zero below its yield force; local "
+             "mu(I) predicts zero below the layer-sliding force and, above it, the speed of the layer the rod "
+             "slides (rod smeared over the cell); NGF is solved in 2D (hollow markers: upper bound set by the "
+             "fluidity floor); Cosserat is not solved in 2D (docs/intruder.md).</p>"]
+    for case in intruder_cases(config):
+        runs = [json.loads((root / "dem" / c / r / "run.json").read_text()) for c, r in dem_runs(config) if c == case]
+        fig, ax = plt.subplots(figsize=(6.5, 4.5))
+        rows = []
+        floor = None
+        moving = [r["intruder"]["speed"] for r in runs if not r["intruder"]["arrested"] and r["intruder"]["speed"] > 0]
+        floor = 0.1 * min(moving) if moving else 1e-9
+        for r in runs:
+            rod = r["intruder"]
+            label = "DEM control (wall at rest)" if rod["control"] else "DEM"
+            if rod["arrested"]:
+                ax.plot(rod["depth_over_d"], floor, "kv" if rod["control"] else "ko", mfc="none", label=label + ", arrested")
+            else:
+                ax.errorbar(rod["depth_over_d"], rod["speed"], yerr=2 * rod["speed_err"], fmt="ks", label=label)
+            rows.append({"run": r["run"], "depth / d": rod["depth_over_d"], "force (N)": rod["force"],
+                         "speed (m/s)": rod["speed"], "error": rod["speed_err"], "arrested": str(rod["arrested"])})
+        refused = []
+        for model in model_names(config):
+            path = root / "models" / case / f"{model}.nc"
+            if not path.exists():
+                continue
+            sol = xr.open_dataset(path)
+            color, ls = MODEL_STYLE.get(model, ("grey", "-"))
+            speeds = np.where(sol.speed.values > 0, sol.speed.values, floor)
+            if sol.sizes["depth_over_d"]:
+                ax.plot(sol.depth_over_d.values, speeds, color=color, ls=ls, marker="x", label=model)
+                if "speed_is_upper_bound" in sol and sol.speed_is_upper_bound.values.any():
+                    bound = sol.speed_is_upper_bound.values.astype(bool)
+                    ax.plot(sol.depth_over_d.values[bound], speeds[bound], "o", color=color, mfc="none", ms=9)
+            for reason in json.loads(sol.attrs.get("refused", "[]")):
+                refused.append({"model": model, "refused": reason})
+            sol.close()
+        ax.set_yscale("log")
+        ax.set_xlabel("rod depth below the top wall / d (-)")
+        ax.set_ylabel("rod speed (m/s), log axis (bottom: zero / arrested)")
+        handles, labels = ax.get_legend_handles_labels()
+        unique = dict(zip(labels, handles))
+        ax.legend(unique.values(), unique.keys(), fontsize=7)
+        parts.append(figures.add("intruder", fig, f"{case}: rod speed against depth, DEM (2 standard errors) and models."))
+        parts.append(rod_frame_figure(root, case, runs, figures))
+        parts.append(table_html(pd.DataFrame(rows)))
+        if refused:
+            parts.append(table_html(pd.DataFrame(refused)))
+    return "\n".join(parts)
+
+
+def rod_frame_figure(root: Path, case: str, runs: list[dict[str, Any]], figures: Figures) -> str:
+    """The DEM flow around the rod, in its frame: u_x minus the rod's speed, one panel per run."""
+    sheared = [r for r in runs if not r["intruder"]["control"]]
+    fig, axes = plt.subplots(1, len(sheared), figsize=(4.2 * len(sheared), 4.2), squeeze=False, sharey=True)
+    for ax, r in zip(axes[0], sheared):
+        ds = xr.open_dataset(root / "fields_xz" / case / f"{r['run']}.nc")
+        d, V = float(ds.attrs["d"]), float(ds.attrs["wall_speed"])
+        x = (ds.x.values - float(ds.attrs["rod_centre_x"])) / d
+        z = (ds.z.values - float(ds.attrs["z_bottom_wall"])) / d
+        # Where no flowing grains are (the rod) the velocity means nothing.
+        empty = ds.rho_body.values < 0.2 * float(np.nanmax(ds.rho_body.values))
+        rel = np.where(empty, np.nan, ds.u_x_rel.values / V)
+        # Symmetric log colours: the creep around the rod is 1e-4 to 1e-2 of V, the band above it ~1.
+        norm = mcolors.SymLogNorm(linthresh=1e-4, vmin=-1.0, vmax=1.0, base=10)
+        mesh = ax.pcolormesh(x, z, rel.T, cmap="RdBu_r", norm=norm, shading="nearest")
+        ax.set_title(f"{r['run']}: rod {r['intruder']['depth_over_d']:.1f} d below the top", fontsize=9)
+        ax.set_xlabel("x from the rod's centre / d (-)")
+        fig.colorbar(mesh, ax=ax, label="(u_x - U_rod) / V (-), symlog")
+        ds.close()
+    axes[0][0].set_ylabel("height above the bottom wall / d (-)")
+    return figures.add("intruder_field", fig, "DEM flow around the rod in its frame (x-z coarse-grained fields of "
+                       "fields_xz/, also as VTK): velocity along x minus the rod's mean speed, over the wall speed, "
+                       "on a symmetric log scale (linear within 1e-4); blank: the rod.")
+
+
+# ------------------------------------------------------------------------------- calibration
+def calibration_section(root: Path, figures: Figures) -> str:
+    params = json.loads((root / "calibration" / "params.json").read_text())
+    states = pd.DataFrame(params["rheometer_states"])
+    loc = {k: v["value"] for k, v in params["local"].items()}
+    fig, (ax_mu, ax_nu) = plt.subplots(1, 2, figsize=(11, 4))
+    for pressure, sub in states.groupby("wall_pressure"):
+        ax_mu.errorbar(sub.I, sub.mu, xerr=sub.I_err, yerr=sub.mu_err, fmt="o", label=f"DEM, P = {pressure:g} Pa")
+        ax_nu.errorbar(sub.I, sub.nu, xerr=sub.I_err, yerr=sub.nu_err, fmt="o", label=f"DEM, P = {pressure:g} Pa")
+    grid = np.logspace(math.log10(states.I.min() / 2), math.log10(states.I.max() * 2), 100)
+    ax_mu.plot(grid, loc["mu_s"] + (loc["mu_2"] - loc["mu_s"]) / (1 + loc["I_0"] / grid), "k-", label="fit mu(I)")
+    ax_nu.plot(grid, loc["nu_c"] - loc["a"] * grid, "k-", label="fit nu(I) = nu_c - a I")
+    for ax in (ax_mu, ax_nu):
+        ax.set_xscale("log")
+        ax.set_xlabel("inertial number I (-)")
+        ax.legend(fontsize=8)
+    ax_mu.set_ylabel("stress ratio mu (-)")
+    ax_nu.set_ylabel("solid fraction nu (-)")
+    rows = []
+    for section in ("local", "critical_state"):
+        for name, e in params[section].items():
+            rows.append({"group": section, "parameter": name, "value": e["value"], "error": e["error"], "fitted on": e["fitted_on"]})
+    for model, entry in params.get("nonlocal", {}).items():
+        for name, e in entry.items():
+            value, err = e["value"], e["error"]
+            if name == "l":
+                name, value, err = "l / d", value / params["d"], err / params["d"]
+            rows.append({"group": model, "parameter": name, "value": value, "error": err, "fitted on": e["fitted_on"]})
+    return ("<h2>Calibration</h2><p class='note'>Local laws from the rheometer bulk (3 d from each wall); "
+            "errors are one standard error (covariance of weighted least squares). Reference values: glass beads "
+            "mu_s = 0.3819, mu_2 = 0.6435, I_0 = 0.279; frictional spheres mu_s ~ 0.36-0.40, nu_c ~ 0.58-0.59.</p>"
+            + figures.add("calibration", fig, "Rheometer states and the fitted local laws.")
+            + table_html(pd.DataFrame(rows)))
+
+
+# --------------------------------------------------------------------------------- stability
+def stability_section(root: Path, figures: Figures) -> str:
+    parts = ["<h2>Stability: where methods fail</h2>"]
+    wp = pd.read_csv(root / "stability" / "well_posedness.csv")
+    # "glass_beads_reference+compressible" -> family "glass_beads_reference", row "local_mu_i (compressible)"
+    family = wp.parameter_set.str.split("+").str[0]
+    variant = wp.parameter_set.str.split("+").str[1].fillna("")
+    wp = wp.assign(family=family, row=wp.model + np.where(variant != "", " (" + variant + ")", ""))
+    rows = sorted(wp.row.unique())
+    families = sorted(wp.family.unique())
+    fig, axes = plt.subplots(1, len(families), figsize=(5.5 * len(families), 0.45 * len(rows) + 1.2),
+                             sharey=True, squeeze=False)
+    for ax, name in zip(axes[0], families):
+        sub = wp[wp.family == name]
+        for k, row in enumerate(rows):
+            m = sub[sub.row == row]
+            ax.scatter(m.I, [k] * len(m), c=np.where(m.well_posed, "tab:green", "tab:red"), s=14, marker="s")
+        ax.set_yticks(range(len(rows)), rows, fontsize=7)
+        ax.set_xscale("log")
+        ax.set_xlabel("inertial number I (-)")
+        ax.set_title(f"parameters: {name}", fontsize=9)
+    parts.append(figures.add("well_posedness", fig, "Linear stability about simple shear: green well posed (growth bounded as the wavenumber grows), red ill posed."))
+    mesh_path = root / "stability" / "mesh_convergence.csv"
+    if mesh_path.exists():
+        mesh = pd.read_csv(mesh_path)
+        fig, ax = plt.subplots(figsize=(6, 4))
+        for (case, model), sub in mesh.groupby(["case", "model"]):
+            color, ls = MODEL_STYLE.get(model, ("grey", "-"))
+            ax.plot(sub.dx, sub.band_width, color=color, ls=ls, marker="o" if case == "shear_gravity" else "^", ms=3,
+                    label=f"{model} ({case})")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("grid spacing dx (m)")
+        ax.set_ylabel("shear-band width, 10-90 % of V (m)")
+        ax.legend(fontsize=6)
+        parts.append(figures.add("mesh_convergence", fig, "Shear-band width against grid spacing: a width that shrinks with dx is set by the grid, not by the model."))
+        summary = mesh.groupby(["case", "model"]).agg(converged=("converged", "last"), finest_band_width=("band_width", "last")).reset_index()
+        parts.append(table_html(summary))
+    cat_path = root / "stability" / "failure_catalogue.csv"
+    if cat_path.exists():
+        parts.append("<h3>Failure catalogue</h3>")
+        parts.append(table_html(pd.read_csv(cat_path).fillna("")))
+    return "\n".join(parts)
+
+
+# --------------------------------------------------------------------------------------- DEM
+def dem_table(runs: list[dict[str, Any]]) -> pd.DataFrame:
+    """One row per DEM run: size, cost and the steady window."""
+    return pd.DataFrame([{
+        "case": r["case"], "run": r["run"], "grains": r["particle_count"],
+        "wall speed (m/s)": r["wall_speed"], "wall pressure (Pa)": r["wall_pressure"], "steps": r["steps"],
+        "dt (s)": r["time_step"], "LIGGGHTS seconds": r["wall_clock_seconds"], "MPI ranks": r["mpi_ranks"],
+        "steady from (s)": r["steady_state_window"][0], "end (s)": r["steady_state_window"][1],
+        "max overlap / d": r["max_overlap_over_d"],
+    } for r in runs])
+
+
+def wall_series_figure(runs: list[dict[str, Any]], figures: Figures) -> str:
+    """Wall friction coefficient and wall height against time, steady window shaded."""
+    fig, (ax_mu, ax_h) = plt.subplots(1, 2, figsize=(11, 4))
+    for r in runs:
+        files = sorted((r["_dir"] / "series").glob("shear_*.txt")) + sorted((r["_dir"] / "series").glob("production_*.txt"))
+        frames = [read_wall_series(s) for s in files]
+        data = pd.concat(frames, ignore_index=True).sort_values("time")
+        area = r["cell"][0] * r["cell"][1]
+        label = f"{r['case']}/{r['run']}"
+        (line,) = ax_mu.plot(data["time"], -data["ftop_x"] / area / r["wall_pressure"], lw=0.8, label=label)
+        ax_h.plot(data["time"], (data["h_top"] - data["h_top"].iloc[-1]) / r["d"], lw=0.8, color=line.get_color())
+        t0, t1 = r["steady_state_window"]
+        ax_mu.axvspan(t0, t1, color=line.get_color(), alpha=0.08)
+    ax_mu.set_xlabel("time t (s)")
+    ax_mu.set_ylabel("wall shear stress / wall pressure (-)")
+    ax_h.set_xlabel("time t (s)")
+    ax_h.set_ylabel("top-wall height minus final height, in d (-)")
+    ax_mu.legend(fontsize=6)
+    return figures.add("wall_series", fig, "Top-wall shear stress over the imposed normal stress, and wall height; shaded: steady window detected from the data.")
+
+
+def fields_checks_table(root: Path, config: dict[str, Any]) -> pd.DataFrame:
+    rows = []
+    for case, run in dem_runs(config):
+        ds = open_fields(root / "fields" / case / f"{run}.nc")
+        row = {"case": case, "run": run, "snapshots": int(ds.attrs.get("number_of_snapshots", -1))}
+        for key, value in ds.attrs.items():
+            if key.startswith("check_") and any(s in key for s in ("balance_", "wall_series_")) and np.isscalar(value):
+                row[key[6:]] = float(value)
+        rows.append(row)
+        ds.close()
+    return pd.DataFrame(rows)
+
+
+def build_report(config: dict[str, Any], figure_dir: Path | None = None) -> str:
+    """The whole HTML report."""
+    root = Path(config["output_root"])
+    figures = Figures(figure_dir)
+    runs = load_runs(config)
+    params = json.loads((root / "calibration" / "params.json").read_text())
+    where = sorted({e["fitted_on"] for entry in params.get("nonlocal", {}).values() for e in entry.values()})
+    sections = [
+        "<p>How well each continuum rheology reproduces LIGGGHTS DEM of dense granular shear: local mu(I) with "
+        "nu(I), local critical-state plasticity, Cosserat plasticity, non-local granular fluidity (NGF) and the "
+        "volume-averaged non-local model (Dsouza &amp; Nott), all calibrated on the DEM rheometer.</p>",
+        score_section(root, figures, ", ".join(where) or "(not fitted)"),
+        profiles_section(root, config, figures),
+        intruder_section(root, config, figures) if intruder_cases(config) else "",
+        calibration_section(root, figures),
+        pareto_section(root, figures),
+        dem_convergence_section(root, config, figures) if convergence_cases(config) else "",
+        stability_section(root, figures),
+        "<h2>DEM runs</h2>",
+        "<p class='note'>LIGGGHTS, Hertz contacts with tangential history, polydisperse spheres; rough walls "
+        "made of grain monolayers. Stiffness and time step follow <code>pipeline/dem/contact_scaling.py</code>.</p>",
+        table_html(dem_table(runs)),
+        wall_series_figure(runs, figures),
+        "<h3>Coarse-graining checks</h3><p class='note'>Momentum balance residuals in the bulk and coarse-grained "
+        "stress at the walls against the wall forces LIGGGHTS reports (fractions of p).</p>",
+        table_html(fields_checks_table(root, config)),
+        "<h2>Provenance</h2>",
+        table_html(pd.DataFrame(sorted(software_versions().items()), columns=["software", "version"])),
+        f"<details><summary>configuration</summary><pre>{html.escape(json.dumps(config, indent=1))}</pre></details>",
+    ]
+    return page("granular-validate: continuum rheologies against DEM", sections)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description="Write the comparison report (self-contained HTML).")
+    parser.add_argument("--config", required=True)
+    parser.add_argument("--out", required=True)
+    parser.add_argument("--figures", type=Path, help="folder for the figures as PNG files")
+    args = parser.parse_args(argv)
+    config = load_config(args.config)
+    out = Path(args.out)
+    atomic.write_text(build_report(config, args.figures), out)
+    return 0

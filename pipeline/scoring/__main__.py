@@ -1,0 +1,10 @@
+"""``python -m pipeline.scoring``: model against DEM, against cost, and the DEM's own noise against cost."""
+from pipeline.common.cli import dispatch
+
+COMMANDS = {
+    "scores": ("pipeline.scoring.scores", "scores.csv: every model against the DEM, with the replica noise floor"),
+    "cost-accuracy": ("pipeline.scoring.cost_accuracy", "error against solve time over grid and tolerance sweeps"),
+    "dem-convergence": ("pipeline.scoring.dem_convergence", "DEM field noise against core-seconds"),
+}
+
+raise SystemExit(dispatch("scoring", COMMANDS))

@@ -1,0 +1,193 @@
+"""Score every model against the DEM fields: ``scores.csv``.
+
+Reference: the mean of the case's DEM replicas (each interpolated onto the first replica's z),
+with the standard error of that mean. ``dem_noise``: the same metric between two independent
+replicas (mean over the pairs), the floor below which no model can be said to do better.
+Profiles are compared inside the layer, at least ``wall_margin_over_d`` d from both walls (the
+wall grains themselves are not the material the models describe).
+
+Usage: ``python -m pipeline.scoring.scores --fields RESULTS/fields/CASE/RUN.nc ... --models
+RESULTS/models/CASE/MODEL.nc ... --out RESULTS/scores.csv`` (files are grouped by their folder,
+the case name).
+"""
+from __future__ import annotations
+
+import argparse
+import itertools
+import json
+import math
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+import pandas as pd
+import xarray as xr
+
+from pipeline.common import atomic
+from pipeline.scoring import metrics
+from pipeline.scoring.metrics import MetricError, Profile
+
+COLUMNS = ["case", "model", "metric", "value", "dem_noise", "n_grid", "solve_seconds"]
+WALL_MARGIN_OVER_D = 1.0
+
+
+def replica_profiles(files: list[Path]) -> list[xr.Dataset]:
+    """The replicas' fields, each interpolated onto the first replica's z."""
+    if not files:
+        raise FileNotFoundError("no DEM fields files to score against")
+    return align_replicas([xr.open_dataset(f) for f in files])
+
+
+def align_replicas(sets: list[xr.Dataset]) -> list[xr.Dataset]:
+    """Replica profiles, each interpolated onto the first one's z (their walls differ slightly)."""
+    return [sets[0]] + [ds.interp(z=sets[0].z) for ds in sets[1:]]
+
+
+def interior(ds: xr.Dataset) -> np.ndarray:
+    """Mask of the points at least the wall margin from both walls."""
+    d = float(ds.attrs["d"])
+    z0, z1 = float(ds.attrs["z_bottom_wall"]), float(ds.attrs["z_top_wall"])
+    z = ds.z.values
+    return (z >= z0 + WALL_MARGIN_OVER_D * d) & (z <= z1 - WALL_MARGIN_OVER_D * d)
+
+
+def mean_profile(reps: list[xr.Dataset], name: str) -> tuple[np.ndarray, np.ndarray]:
+    """Replica mean of a variable and its standard error (from the replicas' own errors)."""
+    values = np.array([ds[name].values for ds in reps])
+    errors = np.array([ds[f"{name}_err"].values for ds in reps])
+    return values.mean(axis=0), np.sqrt((errors**2).sum(axis=0)) / len(reps)
+
+
+Metric = Callable[[np.ndarray, dict[str, np.ndarray], Profile, float], float]
+
+
+def metric_table(z: np.ndarray, wall_speed: float) -> dict[str, tuple[str, Callable[..., float]]]:
+    """metric name -> (variable it needs, function(model_values, dem_values, dem_err))."""
+
+    def vel_rmse(m, dem, err):
+        return metrics.velocity_rmse_rel(z, m, dem, wall_speed)
+
+    def log_rmse(m, dem, err):
+        prof = Profile(z, dem, err)
+        return metrics.log_velocity_rmse(m, prof, metrics.creeping_mask(prof, wall_speed))
+
+    def decay(m, dem, err):
+        prof = Profile(z, dem, err)
+        return metrics.decay_length_rel_err(z, m, prof, metrics.creeping_mask(prof, wall_speed))
+
+    def band(m, dem, err):
+        return metrics.shear_band_width_rel_err(z, m, dem, wall_speed)
+
+    def plain(m, dem, err):
+        return metrics.rmse(m, dem)
+
+    return {
+        "velocity_rmse_rel": ("u_x", vel_rmse),
+        "log_velocity_rmse": ("u_x", log_rmse),
+        "decay_length_rel_err": ("u_x", decay),
+        "shear_band_width_rel_err": ("u_x", band),
+        "nu_rmse": ("nu", plain),
+        "mu_rmse": ("mu", plain),
+    }
+
+
+def dem_noise(reps: list[xr.Dataset], variable: str, fn: Callable[..., float], mask: np.ndarray) -> float:
+    """Mean of the metric between pairs of replicas (nan with a single replica)."""
+    values = []
+    for a, b in itertools.combinations(reps, 2):
+        try:
+            values.append(fn(a[variable].values[mask], b[variable].values[mask], b[f"{variable}_err"].values[mask]))
+        except MetricError:
+            continue
+    finite = [v for v in values if math.isfinite(v)]
+    return float(np.mean(finite)) if finite else float("nan")
+
+
+def score_case(case: str, field_files: list[Path], model_files: dict[str, Path]) -> pd.DataFrame:
+    """All metric rows of one case."""
+    reps = replica_profiles(field_files)
+    mask = interior(reps[0])
+    z = reps[0].z.values[mask]
+    wall_speed = float(reps[0].attrs["wall_speed"])
+    rows = []
+    table = metric_table(z, wall_speed)
+    for model, path in sorted(model_files.items()):
+        sol = xr.open_dataset(path)
+        if not np.allclose(sol.z.values, reps[0].z.values):
+            raise ValueError(f"{path}: model z does not match the DEM fields of {case} (solve it on those fields)")
+        for metric, (variable, fn) in table.items():
+            if variable not in sol:
+                continue  # the model does not predict this quantity: no row
+            dem, err = mean_profile(reps, variable)
+            try:
+                value = fn(sol[variable].values[mask], dem[mask], err[mask])
+            except MetricError:
+                continue
+            rows.append({
+                "case": case, "model": model, "metric": metric, "value": value,
+                "dem_noise": dem_noise(reps, variable, fn, mask),
+                "n_grid": int(sol.attrs["n_grid"]), "solve_seconds": float(sol.attrs["solve_seconds"]),
+            })
+        sol.close()
+    return pd.DataFrame(rows, columns=COLUMNS)
+
+
+def score_intruder(runs: list[dict], model_files: dict[str, Path]) -> pd.DataFrame:
+    """``intruder_speed_log_err``: RMS of log10(U_model / U_dem) over the depths where the DEM rod
+    moves (not arrested) and the model gives a speed; inf where the model predicts no motion.
+
+    DEM speeds at one depth are averaged over replicas; ``dem_noise`` is the same metric between
+    two replicas at the same depth (nan with one replica).
+    """
+    sheared = [r for r in runs if not r["intruder"]["control"]]
+    by_depth: dict[float, list[float]] = {}
+    for r in sheared:
+        if not r["intruder"]["arrested"]:
+            by_depth.setdefault(round(r["intruder"]["depth_target_over_d"], 6), []).append(r["intruder"]["speed"])
+    if not by_depth:
+        raise MetricError("no intruder run moves: nothing to score")
+    actual = {}
+    for r in sheared:
+        actual.setdefault(round(r["intruder"]["depth_target_over_d"], 6), []).append(r["intruder"]["depth_over_d"])
+    noise_terms = [abs(math.log10(a / b)) for v in by_depth.values() for a, b in itertools.combinations(v, 2) if a > 0 and b > 0]
+    noise = float(np.sqrt(np.mean(np.square(noise_terms)))) if noise_terms else float("nan")
+    rows = []
+    for model, path in sorted(model_files.items()):
+        sol = xr.open_dataset(path)
+        errors = []
+        for target, speeds in by_depth.items():
+            depth = float(np.mean(actual[target]))
+            match = np.nonzero(np.isclose(sol.depth_over_d.values, depth, atol=0.5))[0]
+            if match.size == 0:
+                continue  # the model refused this depth (listed in its file)
+            u = float(sol.speed.values[match[0]])
+            errors.append(math.inf if u <= 0.0 else math.log10(u / float(np.mean(speeds))))
+        if errors:
+            value = math.inf if any(math.isinf(e) for e in errors) else float(np.sqrt(np.mean(np.square(errors))))
+            rows.append({"case": "intruder", "model": model, "metric": "intruder_speed_log_err", "value": value,
+                         "dem_noise": noise, "n_grid": int(sol.attrs["n_grid"]),
+                         "solve_seconds": float(sol.attrs["solve_seconds"])})
+        sol.close()
+    return pd.DataFrame(rows, columns=COLUMNS)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description="Score the continuum models against the DEM fields.")
+    parser.add_argument("--fields", nargs="+", required=True, type=Path, help="fields/CASE/RUN.nc files")
+    parser.add_argument("--models", nargs="+", required=True, type=Path, help="models/CASE/MODEL.nc files")
+    parser.add_argument("--intruder-runs", nargs="*", default=[], type=Path, help="run.json of the intruder runs")
+    parser.add_argument("--intruder-models", nargs="*", default=[], type=Path, help="models/intruder/MODEL.nc files")
+    parser.add_argument("--out", required=True, type=Path)
+    args = parser.parse_args(argv)
+    frames = []
+    if args.intruder_models:
+        runs = [json.loads(p.read_text()) for p in args.intruder_runs]
+        frames.append(score_intruder(runs, {p.stem: p for p in args.intruder_models}))
+    for case in sorted({p.parent.name for p in args.models}):
+        field_files = sorted(p for p in args.fields if p.parent.name == case)
+        model_files = {p.stem: p for p in args.models if p.parent.name == case}
+        frames.append(score_case(case, field_files, model_files))
+    scores = pd.concat(frames, ignore_index=True)
+    atomic.write_csv(scores, args.out)
+    print(scores.to_string(index=False))
+    return 0

@@ -1,0 +1,108 @@
+"""Helpers the Snakefile calls: input and params functions, the per-rule config files.
+
+The result paths themselves are :mod:`pipeline.common.layout`."""
+from __future__ import annotations
+
+import json
+import shlex
+import sys
+from pathlib import Path
+from typing import Any
+
+from pipeline.common.config import dem_config, dem_runs, validate_config
+from pipeline.common.layout import fields_paths, root
+
+
+def checked(config: dict[str, Any], source: str = "workflow config") -> dict[str, Any]:
+    """The Snakemake config, validated (schema plus cross-key checks)."""
+    return validate_config(config, source)
+
+
+def _convergence_runs(config: dict[str, Any], case: str) -> list[str]:
+    """Run ids of a case's replicas and size-study runs, in DEM-run order."""
+    return [run for c, run in dem_runs(config) if c == case]
+
+
+def convergence_run_jsons(wildcards: Any, config: dict[str, Any]) -> list[str]:
+    """run.json of the case's replicas and size-study runs, in :func:`convergence_fields` order."""
+    return [str(root(config) / "dem" / wildcards.case / run / "run.json") for run in _convergence_runs(config, wildcards.case)]
+
+
+def convergence_fields(wildcards: Any, config: dict[str, Any]) -> list[str]:
+    """Fields of the case's replicas and size-study runs."""
+    return [str(root(config) / "fields" / wildcards.case / f"{run}.nc") for run in _convergence_runs(config, wildcards.case)]
+
+
+def convergence_stores(wildcards: Any, config: dict[str, Any]) -> list[str]:
+    """Dump stores of the case's replicas (the averaging-time sweep re-averages their snapshots)."""
+    return [str(root(config) / "dem" / wildcards.case / Path(f).stem / "dumps.nc") for f in fields_paths(config, wildcards.case)]
+
+
+def mpi_launcher(config: dict[str, Any]) -> str:
+    """Launcher for the DEM rule's ``resources.mpi`` ('none': run the binary directly)."""
+    return config["dem"]["mpi_launcher"] or "none"
+
+
+def mpi_ranks(config: dict[str, Any]) -> int:
+    """MPI ranks of one DEM run (``resources.tasks``)."""
+    return int(config["dem"]["mpi_ranks"])
+
+
+def effective_config_file(config: dict[str, Any], dem_case: str | None = None) -> str:
+    """Write the validated config (with any ``--config`` overrides) where the rules read it.
+
+    The file is rewritten only when its content changes, so an unchanged config does not make
+    Snakemake rerun anything. With ``dem_case`` it holds only what that case's DEM runs depend on
+    (``config.dem.<case>.json``), so changing a model setting or another case does not rerun
+    them. Returns its path.
+    """
+    name = f"config.dem.{dem_case}.json" if dem_case else "config.effective.json"
+    path = root(config) / name
+    text = json.dumps(dem_config(config, dem_case) if dem_case else config, indent=1, sort_keys=True)
+    if not path.exists() or path.read_text() != text:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(path.name + ".tmp")
+        tmp.write_text(text)
+        tmp.replace(path)
+    return str(path)
+
+
+def nonlocal_calibration_fields(config: dict[str, Any]) -> str:
+    """Fields file of the run the non-local parameters are fitted on."""
+    calib = config.get("calibration") or {}
+    case = calib.get("nonlocal_case", "shear_gravity")
+    run = calib.get("nonlocal_run", "r1")
+    if (case, run) not in dem_runs(config):
+        raise ValueError(f"calibration.nonlocal_case/nonlocal_run = {case}/{run} is not a DEM run of this config")
+    return str(root(config) / "fields" / case / f"{run}.nc")
+
+
+def case_fields(wildcards: Any, config: dict[str, Any]) -> list[str]:
+    """Input function body: the fields files of the case named by the wildcards."""
+    return fields_paths(config, wildcards.case)
+
+
+# Params functions of the Snakefile (Snakemake passes wildcards, input, output by name).
+def output_folder(wildcards: Any, output: Any) -> str:
+    """Folder of a rule's first output (a DEM run folder)."""
+    return str(Path(output[0]).parent)
+
+
+def run_folder_of_input(wildcards: Any, input: Any) -> str:  # noqa: A002 (Snakemake's name)
+    """Folder of the rule's ``run`` input (run.json of a DEM run)."""
+    return str(Path(input.run).parent)
+
+
+def figure_folder(wildcards: Any, output: Any) -> str:
+    """Folder the report's figures are written to."""
+    return str(Path(output.figures[0]).parent)
+
+
+def python_path_prefix() -> str:
+    """Shell prefix putting the running interpreter's folder first on PATH (rules call ``python``)."""
+    return f"export PATH={shlex.quote(str(Path(sys.executable).parent))}:$PATH; "
+
+
+def intruder_run_jsons(wildcards: Any, config: dict[str, Any]) -> list[str]:
+    """run.json of every run of the intruder case named by the wildcards."""
+    return [str(root(config) / "dem" / c / r / "run.json") for c, r in dem_runs(config) if c == wildcards.case]

@@ -1,0 +1,25 @@
+# Input functions shared by the stages' rules: each hands the config to pipeline.workflow.targets.
+
+
+def dem_case_config(wildcards):
+    return targets.effective_config_file(config, dem_case=wildcards.case)
+
+
+def case_fields(wildcards):
+    return targets.case_fields(wildcards, config)
+
+
+def intruder_runs(wildcards):
+    return targets.intruder_run_jsons(wildcards, config)
+
+
+def convergence_run_jsons(wildcards):
+    return targets.convergence_run_jsons(wildcards, config)
+
+
+def convergence_stores(wildcards):
+    return targets.convergence_stores(wildcards, config)
+
+
+def convergence_fields(wildcards):
+    return targets.convergence_fields(wildcards, config)

@@ -1,0 +1,47 @@
+# Continuum models on each case's geometry (pipeline.models).
+
+
+rule model:
+    message:
+        "Model {wildcards.model} on {wildcards.case}"
+    conda:
+        ENV
+    input:
+        config=CONFIG_JSON,
+        params=f"{ROOT}/calibration/params.json",
+        fields=case_fields,
+    output:
+        f"{ROOT}/models/{{case}}/{{model}}.nc",
+    wildcard_constraints:
+        case="|".join(layout.scored_cases(config)) or "no_planar_case",
+    log:
+        f"{ROOT}/logs/models/{{case}}/{{model}}.log",
+    benchmark:
+        f"{ROOT}/benchmarks/models/{{case}}/{{model}}.tsv"
+    shell:
+        "python -m pipeline.models planar --config {input.config} --params {input.params} "
+        "--case {wildcards.case} --model {wildcards.model} --fields {input.fields} --out {output} > {log} 2>&1"
+
+
+rule intruder_model:
+    message:
+        "Model {wildcards.model}: intruder speed at the DEM depths of {wildcards.case}"
+    conda:
+        ENV
+    input:
+        config=CONFIG_JSON,
+        params=f"{ROOT}/calibration/params.json",
+        runs=intruder_runs,
+        fields=case_fields,
+    output:
+        f"{ROOT}/models/{{case}}/{{model}}.nc",
+    wildcard_constraints:
+        case="|".join(layout.intruder_cases(config)) or "no_intruder_case",
+        model="|".join(layout.INTRUDER_MODELS),
+    log:
+        f"{ROOT}/logs/models/{{case}}/{{model}}.log",
+    benchmark:
+        f"{ROOT}/benchmarks/models/{{case}}/{{model}}.tsv"
+    shell:
+        "python -m pipeline.models intruder --config {input.config} --params {input.params} "
+        "--model {wildcards.model} --runs {input.runs} --fields {input.fields} --out {output} > {log} 2>&1"

@@ -1,0 +1,36 @@
+# Report: the self-contained HTML comparison (pipeline.report).
+
+
+rule report:
+    message:
+        "Comparison report"
+    conda:
+        ENV
+    input:
+        config=CONFIG_JSON,
+        runs=layout.run_json_paths(config),
+        fields=layout.fields_paths(config, size_study=True),
+        params=f"{ROOT}/calibration/params.json",
+        models=layout.model_paths(config),
+        well_posedness=f"{ROOT}/stability/well_posedness.csv",
+        scores=f"{ROOT}/scores.csv",
+        cost=f"{ROOT}/cost_accuracy.csv",
+        intruder_models=layout.intruder_model_paths(config),
+        mesh=f"{ROOT}/stability/mesh_convergence.csv",
+        failures=f"{ROOT}/stability/failure_catalogue.csv",
+        dem_convergence=layout.convergence_paths(config),
+        intruder_fields=layout.intruder_plane_paths(config),
+    output:
+        html=f"{ROOT}/report.html",
+        figures=[
+            report(f"{ROOT}/figures/{name}.png", category="granular-validate")
+            for name in layout.report_figures(config)
+        ],
+    log:
+        f"{ROOT}/logs/report.log",
+    benchmark:
+        f"{ROOT}/benchmarks/report.tsv"
+    params:
+        figures=targets.figure_folder,
+    shell:
+        "python -m pipeline.report --config {input.config} --out {output.html} --figures {params.figures} > {log} 2>&1"

@@ -1,0 +1,64 @@
+# Scoring: models against the DEM and against cost; the DEM's noise against cost (pipeline.scoring).
+
+
+rule scores:
+    message:
+        "Scores of every model against the DEM, with the replica noise floor"
+    conda:
+        ENV
+    input:
+        fields=[f for case in layout.scored_cases(config) for f in layout.fields_paths(config, case)],
+        models=layout.model_paths(config),
+        intruder_runs=layout.all_intruder_run_jsons(config),
+        intruder_models=layout.intruder_model_paths(config),
+    output:
+        f"{ROOT}/scores.csv",
+    log:
+        f"{ROOT}/logs/scores.log",
+    benchmark:
+        f"{ROOT}/benchmarks/scores.tsv"
+    shell:
+        "python -m pipeline.scoring scores --fields {input.fields} --models {input.models} "
+        "--intruder-runs {input.intruder_runs} --intruder-models {input.intruder_models} --out {output} > {log} 2>&1"
+
+
+rule cost_accuracy:
+    message:
+        "Accuracy against cost: each model over a sweep of grid resolution"
+    conda:
+        ENV
+    input:
+        params=f"{ROOT}/calibration/params.json",
+        fields=[f for case in layout.scored_cases(config) for f in layout.fields_paths(config, case)],
+    output:
+        f"{ROOT}/cost_accuracy.csv",
+    params:
+        models=layout.model_names(config),
+    log:
+        f"{ROOT}/logs/cost_accuracy.log",
+    benchmark:
+        f"{ROOT}/benchmarks/cost_accuracy.tsv"
+    shell:
+        "python -m pipeline.scoring cost-accuracy --params {input.params} --fields {input.fields} "
+        "--models {params.models} --out {output} > {log} 2>&1"
+
+
+rule dem_convergence:
+    message:
+        "DEM field noise against core-seconds of {wildcards.case}: averaging time and system size"
+    conda:
+        ENV
+    input:
+        config=CONFIG_JSON,
+        runs=convergence_run_jsons,
+        stores=convergence_stores,
+        fields=convergence_fields,
+    output:
+        f"{ROOT}/dem_convergence/{{case}}.csv",
+    log:
+        f"{ROOT}/logs/dem_convergence/{{case}}.log",
+    benchmark:
+        f"{ROOT}/benchmarks/dem_convergence/{{case}}.tsv"
+    shell:
+        "python -m pipeline.scoring dem-convergence --config {input.config} --case {wildcards.case} "
+        "--runs {input.runs} --fields {input.fields} --out {output} > {log} 2>&1"

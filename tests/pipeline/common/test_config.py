@@ -1,0 +1,87 @@
+"""Config validation names the bad key; seeds are deterministic."""
+from __future__ import annotations
+
+import copy
+
+import pytest
+import yaml
+
+from pipeline.common.config import (
+    ConfigError,
+    _is_prime,
+    dem_runs,
+    derived_seed,
+    liggghts_seed,
+    load_config,
+    run_state,
+    validate_config,
+)
+
+
+@pytest.fixture
+def config() -> dict:
+    return load_config("config/ci.yaml")
+
+
+def test_both_shipped_configs_are_valid() -> None:
+    for path in ("config/config.yaml", "config/ci.yaml"):
+        assert load_config(path)["cases"]
+
+
+@pytest.mark.parametrize(
+    ("mutate", "key"),
+    [
+        (lambda c: c["material"].__setitem__("friction", "half"), "material.friction"),
+        (lambda c: c["material"].__setitem__("dt_over_contact_time", 0.2), "material.dt_over_contact_time"),
+        (lambda c: c["cases"]["rheometer"].__setitem__("n_grains", 10), "cases.rheometer.n_grains"),
+        (lambda c: c["cases"]["rheometer"].__setitem__("gravity", 9.81), "cases.rheometer.gravity"),
+        (lambda c: c["dem"].__setitem__("mpi_ranks", 0), "dem.mpi_ranks"),
+        (lambda c: c["dem"].__setitem__("unknown_key", 1), "dem"),
+        (lambda c: c.__setitem__("seed", -1), "seed"),
+    ],
+)
+def test_invalid_value_is_reported_with_its_key(config: dict, mutate, key: str) -> None:
+    bad = copy.deepcopy(config)
+    mutate(bad)
+    with pytest.raises(ConfigError) as err:
+        validate_config(bad, "my.yaml")
+    assert f"my.yaml: {key}:" in str(err.value)
+
+
+def test_design_overlap_must_stay_below_hard_bound(config: dict) -> None:
+    bad = copy.deepcopy(config)
+    bad["material"]["design_overlap"] = bad["material"]["max_overlap"]
+    with pytest.raises(ConfigError, match="design_overlap"):
+        validate_config(bad, "x.yaml")
+
+
+def test_missing_and_malformed_files(tmp_path) -> None:
+    with pytest.raises(ConfigError, match="not found"):
+        load_config(tmp_path / "nope.yaml")
+    broken = tmp_path / "broken.yaml"
+    broken.write_text("seed: [1, 2\n")
+    with pytest.raises(ConfigError, match="broken.yaml: not valid YAML"):
+        load_config(broken)
+
+
+def test_runs_and_seeds_are_deterministic(config: dict) -> None:
+    runs = dem_runs(config)
+    rheo = config["cases"]["rheometer"]
+    n_rheo = (len(rheo["inertial_numbers"]) + len(rheo.get("extra_states", []))) * rheo["replicas"]
+    # Intruder runs: one per depth and replica, plus the controls (tests/pipeline/test_intruder_run.py).
+    n_intruder = sum(1 for case, _ in runs if case == "intruder")
+    gravity = config["cases"]["shear_gravity"]
+    study = gravity.get("size_study", {})
+    n_gravity = gravity["replicas"] + len(study.get("cells", [])) * study.get("replicas", 0)
+    assert len(runs) == n_rheo + n_gravity + n_intruder
+    assert run_state("I0.03-P200-r1") == pytest.approx((0.03, 200.0))
+    with pytest.raises(ValueError, match="not a rheometer run id"):
+        run_state("r1")
+    assert derived_seed(7, "a", "b") == derived_seed(7, "a", "b") != derived_seed(8, "a", "b")
+    seed = liggghts_seed(7, "insert")
+    assert seed > 10000 and _is_prime(seed)
+
+
+def test_schema_is_yaml_loadable() -> None:
+    with open("config/schema.yaml") as fh:
+        assert yaml.safe_load(fh)["type"] == "object"
