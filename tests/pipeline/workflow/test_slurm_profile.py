@@ -18,7 +18,8 @@ PROFILE = REPO / "profiles" / "slurm"
 def test_profile_resources_name_existing_rules() -> None:
     profile = yaml.safe_load((PROFILE / "config.yaml").read_text())
     assert profile["executor"] == "slurm"
-    rules = set(re.findall(r"^rule (\w+):", (REPO / "Snakefile").read_text(), re.M))
+    sources = [REPO / "Snakefile", *sorted((REPO / "rules").glob("*.smk"))]
+    rules = {name for f in sources for name in re.findall(r"^rule (\w+):", f.read_text(), re.M)}
     # A typo in a rule name would be silently ignored by Snakemake.
     assert set(profile["set-resources"]) <= rules, set(profile["set-resources"]) - rules
     dem = profile["set-resources"]["dem"]
