@@ -4,6 +4,7 @@
 from snakemake.utils import min_version, validate
 
 from pipeline.common import layout
+from pipeline.common.config import dem_runs
 from pipeline.workflow import targets
 
 min_version("9.0")
@@ -25,10 +26,10 @@ ENV = "../envs/granular-validate.yaml"
 # Rules run `python` from the environment Snakemake itself runs in (the project's .venv).
 shell.prefix(targets.python_path_prefix())
 CONFIG_JSON = targets.effective_config_file(config)
-# Per-case DEM configs are written here, at parse time: a file an input function creates while
+# Per-run DEM configs are written here, at parse time: a file an input function creates while
 # the DAG is built is missed by Snakemake's file cache on a fresh output root (MissingInputException).
-for _case in config["cases"]:
-    targets.effective_config_file(config, dem_case=_case)
+for _run in dem_runs(config):
+    targets.effective_config_file(config, dem_run=_run)
 
 
 wildcard_constraints:

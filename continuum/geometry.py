@@ -22,6 +22,11 @@ class PlanarShear:
         gravity: magnitude g of gravity along -z (m s-2); 0 for the homogeneous rheometer.
         d: mean grain diameter (m).
         rho_s: grain material density (kg m-3).
+        normal_stress_ratio: sigma_zz / p, the normal stress on the shear planes over the mean
+            normal stress (one third of the trace). The momentum balance fixes sigma_zz(z) (wall
+            load plus weight); the models' constitutive laws are written in p, as mu(I) is, so
+            p = sigma_zz / normal_stress_ratio. 1 means no normal-stress differences; a DEM
+            value is measured on the rheometer (taken independent of depth and I).
     """
 
     depth: float
@@ -30,6 +35,17 @@ class PlanarShear:
     gravity: float
     d: float
     rho_s: float
+    normal_stress_ratio: float = 1.0
+
+    @property
+    def top_pressure(self) -> float:
+        """Mean normal stress p (Pa) under the top wall: P_wall / normal_stress_ratio."""
+        return self.wall_pressure / self.normal_stress_ratio
+
+    @property
+    def pressure_gradient(self) -> float:
+        """dp / d(depth) per unit solid fraction (Pa m-1): g rho_s / normal_stress_ratio."""
+        return self.gravity * self.rho_s / self.normal_stress_ratio
 
     def __post_init__(self) -> None:
         for name in ("depth", "wall_pressure", "d", "rho_s"):
@@ -40,5 +56,8 @@ class PlanarShear:
             raise ValueError(f"PlanarShear.gravity is a magnitude (acts along -z), got {self.gravity!r}")
         if self.wall_speed < 0.0:
             raise ValueError(f"PlanarShear.wall_speed must be >= 0 (top wall moves along +x), got {self.wall_speed!r}")
+        if not 0.5 < self.normal_stress_ratio < 2.0:
+            raise ValueError(f"PlanarShear.normal_stress_ratio (sigma_zz / p) = {self.normal_stress_ratio!r} is "
+                             "outside (0.5, 2): not a dense granular flow")
         if self.depth < 2.0 * self.d:
             raise ValueError(f"PlanarShear.depth={self.depth!r} m is under two grain diameters (d={self.d!r} m)")

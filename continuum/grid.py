@@ -22,7 +22,7 @@ def cumulative_trapezoid(y: np.ndarray, x: np.ndarray) -> np.ndarray:
 
 
 def hydrostatic_pressure(z: np.ndarray, nu: np.ndarray, geometry: PlanarShear) -> np.ndarray:
-    """p(z) = P_wall + g rho_s * integral_z^H nu dz' (Pa), from the vertical momentum balance
-    with the normal stress taken equal to the pressure (no normal-stress differences)."""
+    """p(z) = (P_wall + g rho_s * integral_z^H nu dz') / r (Pa): the vertical momentum balance
+    gives sigma_zz, and p = sigma_zz / r with r = ``geometry.normal_stress_ratio``."""
     weight_below_top = cumulative_trapezoid(nu, z)
-    return geometry.wall_pressure + geometry.gravity * geometry.rho_s * (weight_below_top[-1] - weight_below_top)
+    return geometry.top_pressure + geometry.pressure_gradient * (weight_below_top[-1] - weight_below_top)

@@ -37,10 +37,10 @@ def _flowing_layer(tau: float, geometry: PlanarShear, params: LocalMuIParameters
     velocity drop below the top wall, plus whether the yield plane lies inside the layer.
     """
     mu_law, nu_law = params.mu_i, params.solid_fraction
-    weight = geometry.gravity * geometry.rho_s
+    weight = geometry.pressure_gradient
 
     def profiles(p_end: float) -> tuple[np.ndarray, ...]:
-        p = np.linspace(geometry.wall_pressure, p_end, n)
+        p = np.linspace(geometry.top_pressure, p_end, n)
         inertial = mu_law.inertial_number(tau / p)
         nu = nu_law.nu(inertial)
         depth_below_top = cumulative_trapezoid(1.0 / (weight * nu), p)
@@ -95,7 +95,7 @@ def solve(geometry: PlanarShear, params: LocalMuIParameters, n_grid: int = 200, 
     """
     t0 = time.perf_counter()
     mu_law, nu_law = params.mu_i, params.solid_fraction
-    V, P = geometry.wall_speed, geometry.wall_pressure
+    V, P = geometry.wall_speed, geometry.top_pressure
     parameters = {"mu_s": mu_law.mu_s, "mu_2": mu_law.mu_2, "I_0": mu_law.I_0, "nu_c": nu_law.nu_c, "a": nu_law.a}
 
     if geometry.gravity == 0.0 or V == 0.0:
@@ -131,7 +131,7 @@ def solve(geometry: PlanarShear, params: LocalMuIParameters, n_grid: int = 200, 
     z_yield = float(z_f[0])
     if bool(layer["yield_inside"]) and z_yield > 0.0:
         z_s = np.linspace(0.0, z_yield, n_grid, endpoint=False)
-        p_s = p_f[0] + geometry.gravity * geometry.rho_s * nu_law.nu_c * (z_yield - z_s)
+        p_s = p_f[0] + geometry.pressure_gradient * nu_law.nu_c * (z_yield - z_s)
         z = np.concatenate([z_s, z_f])
         p = np.concatenate([p_s, p_f])
         nu = np.concatenate([np.full_like(z_s, nu_law.nu_c), nu_f])
@@ -156,7 +156,7 @@ def _homogeneous(geometry: PlanarShear, params: LocalMuIParameters, n_grid: int,
     mu_law, nu_law = params.mu_i, params.solid_fraction
     z = np.linspace(0.0, geometry.depth, n_grid)
     gammadot = geometry.wall_speed / geometry.depth
-    P = geometry.wall_pressure
+    P = geometry.top_pressure
     if geometry.gravity != 0.0:
         raise OutOfRangeError(MODEL, "a bed at rest under gravity has no unique stress state")
     inertial = gammadot * geometry.d / np.sqrt(P / geometry.rho_s)

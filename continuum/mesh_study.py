@@ -176,7 +176,7 @@ def weak_plane_packing(geometry: PlanarShear, line: continuum.CriticalStateLine,
     """
     z_w = 0.4142 * geometry.depth if height is None else height
     w = 2.0 * geometry.d if width is None else width
-    nu_c = float(line.nu_cs(geometry.wall_pressure))
+    nu_c = float(line.nu_cs(geometry.top_pressure))
 
     def nu(z: np.ndarray) -> np.ndarray:
         return nu_c + excess * (1.0 - dip * np.exp(-(((np.asarray(z) - z_w) / w) ** 2)))

@@ -82,9 +82,9 @@ def solve(geometry: PlanarShear, params: NGFParameters, n_grid: int = 200, case:
         OutOfRangeError: no shear stress up to 10 P_wall drives the wall at the requested speed.
     """
     t0 = time.perf_counter()
-    V, P = geometry.wall_speed, geometry.wall_pressure
+    V, P = geometry.wall_speed, geometry.top_pressure
     z = uniform_grid(geometry, n_grid)
-    p = P + geometry.gravity * geometry.rho_s * params.nu * (geometry.depth - z)
+    p = P + geometry.pressure_gradient * params.nu * (geometry.depth - z)
     mu_s = params.mu_i.mu_s
     parameters = {"mu_s": mu_s, "mu_2": params.mu_i.mu_2, "I_0": params.mu_i.I_0, "A": params.A,
                   "nu_weight": params.nu, "delta_mu": params.delta_mu}

@@ -23,7 +23,7 @@ def critical_packing(z: np.ndarray, geometry: PlanarShear, line: CriticalStateLi
 
     Fixed-point iteration: the correction shrinks by a factor kappa g rho_s H / p each pass.
     """
-    nu = np.full_like(z, float(line.nu_cs(geometry.wall_pressure)))
+    nu = np.full_like(z, float(line.nu_cs(geometry.top_pressure)))
     for _ in range(200):
         nu_new = line.nu_cs(hydrostatic_pressure(z, nu, geometry))
         if np.max(np.abs(nu_new - nu)) <= 1e-15:

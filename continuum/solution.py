@@ -67,6 +67,7 @@ def build_solution(
         "wall_speed": float(geometry.wall_speed),
         "wall_pressure": float(geometry.wall_pressure),
         "gravity": float(geometry.gravity),
+        "normal_stress_ratio": float(geometry.normal_stress_ratio),
     }
     attrs.update({k: float(v) for k, v in parameters.items()})
     if extra_attrs:

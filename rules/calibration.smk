@@ -8,7 +8,7 @@ rule calibrate:
         ENV
     input:
         config=CONFIG_JSON,
-        rheometer=layout.fields_paths(config, "rheometer"),
+        rheometer=targets.rheometer_calibration_fields(config),
         nonlocal_fields=targets.nonlocal_calibration_fields(config),
     output:
         f"{ROOT}/calibration/params.json",

@@ -2,7 +2,7 @@
 
 
 def dem_case_config(wildcards):
-    return targets.effective_config_file(config, dem_case=wildcards.case)
+    return targets.effective_config_file(config, dem_run=(wildcards.case, wildcards.run))
 
 
 def case_fields(wildcards):

@@ -14,6 +14,7 @@ rule report:
         models=layout.model_paths(config),
         well_posedness=f"{ROOT}/stability/well_posedness.csv",
         scores=f"{ROOT}/scores.csv",
+        decay_length=f"{ROOT}/validation/decay_length.csv",
         cost=f"{ROOT}/cost_accuracy.csv",
         intruder_models=layout.intruder_model_paths(config),
         mesh=f"{ROOT}/stability/mesh_convergence.csv",

@@ -11,6 +11,7 @@ rule scores:
         models=layout.model_paths(config),
         intruder_runs=layout.all_intruder_run_jsons(config),
         intruder_models=layout.intruder_model_paths(config),
+        params=f"{ROOT}/calibration/params.json",
     output:
         f"{ROOT}/scores.csv",
     log:
@@ -19,7 +20,8 @@ rule scores:
         f"{ROOT}/benchmarks/scores.tsv"
     shell:
         "python -m pipeline.scoring scores --fields {input.fields} --models {input.models} "
-        "--intruder-runs {input.intruder_runs} --intruder-models {input.intruder_models} --out {output} > {log} 2>&1"
+        "--intruder-runs {input.intruder_runs} --intruder-models {input.intruder_models} --params {input.params} "
+        "--out {output} > {log} 2>&1"
 
 
 rule cost_accuracy:
@@ -62,3 +64,27 @@ rule dem_convergence:
     shell:
         "python -m pipeline.scoring dem-convergence --config {input.config} --case {wildcards.case} "
         "--runs {input.runs} --fields {input.fields} --out {output} > {log} 2>&1"
+
+
+rule decay_length:
+    message:
+        "Creep decay length against the stress ratio, every planar case, DEM and models"
+    conda:
+        ENV
+    input:
+        config=CONFIG_JSON,
+        params=f"{ROOT}/calibration/params.json",
+        fields=[f for case in layout.scored_cases(config) for f in layout.fields_paths(config, case)],
+        models=layout.model_paths(config),
+    output:
+        table=f"{ROOT}/validation/decay_length.csv",
+        models=f"{ROOT}/validation/decay_length_models.csv",
+        fits=f"{ROOT}/validation/decay_length_fit.csv",
+        settings=f"{ROOT}/validation/decay_length.json",
+    log:
+        f"{ROOT}/logs/decay_length.log",
+    benchmark:
+        f"{ROOT}/benchmarks/decay_length.tsv"
+    shell:
+        "python -m pipeline.scoring decay-length --config {input.config} --params {input.params} "
+        "--fields {input.fields} --models {input.models} --out {output.table} > {log} 2>&1"

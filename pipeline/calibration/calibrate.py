@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+import continuum
 from continuum import calibration as fits
 from continuum.geometry import PlanarShear
 from continuum.parameters import (
@@ -32,8 +33,10 @@ from continuum.parameters import (
     NGFParameters,
     VolumeAveragedParameters,
 )
-from pipeline.common.config import load_config
+from pipeline.common.config import calibration_runs, load_config, validation_cases
 from pipeline.common.formats import open_fields
+from pipeline.common.observables import creep_speed, log_speed_error
+from pipeline.common.planar_cell import planar_cell
 from pipeline.common.provenance import provenance
 
 CALIBRATION_DEFAULTS: dict[str, Any] = {
@@ -52,6 +55,9 @@ CALIBRATION_DEFAULTS: dict[str, Any] = {
 #: Slope d nu_cs / d ln p used when the DEM resolves none (rigid grains): the order of the
 #: relative grain compliance (mean overlap / d ~ 1e-3).
 KAPPA_FLOOR = 1e-3
+
+#: Points faster than this fraction of the wall speed are the shear band in the fit report.
+BAND_SPEED = 0.1
 
 
 class CalibrationError(ValueError):
@@ -80,6 +86,14 @@ def bulk_state(path: Path, margin_over_d: float) -> dict[str, float]:
             f"(walls at {z0:.4g} and {z1:.4g} m, d = {d:.3g} m): the rheometer cell is too thin"
         )
     out: dict[str, float] = {"file": str(path), "wall_pressure": float(ds.attrs["wall_pressure"])}
+    p = bulk["p"].values
+    for name in ("sigma_xx", "sigma_yy", "sigma_zz"):
+        ratio = bulk[name].values / p
+        if not np.all(np.isfinite(ratio)):
+            raise CalibrationError(f"{path}: non-finite {name} / p in the bulk")
+        # sigma_aa and p share their fluctuations; the error of sigma_aa over p bounds the ratio's.
+        out[f"{name}_over_p"] = float(ratio.mean())
+        out[f"{name}_over_p_err"] = float((bulk[f"{name}_err"].values / p).mean())
     for name in ("I", "mu", "nu", "p", "shear_rate"):
         values = bulk[name].values
         if not np.all(np.isfinite(values)):
@@ -100,32 +114,47 @@ def _entry(value: float, error: float, fitted_on: str, note: str = "") -> dict[s
     return entry
 
 
-def planar_geometry(ds: xr.Dataset) -> tuple[PlanarShear, np.ndarray]:
-    """The planar cell of a fields file, and the fields' z shifted so the bottom wall is at 0."""
-    z0, z1 = float(ds.attrs["z_bottom_wall"]), float(ds.attrs["z_top_wall"])
-    geometry = PlanarShear(
-        depth=z1 - z0,
-        wall_speed=float(ds.attrs["wall_speed"]),
-        wall_pressure=float(ds.attrs["wall_pressure"]),
-        gravity=float(ds.attrs["gravity"]),
-        d=float(ds.attrs["d"]),
-        rho_s=float(ds.attrs["rho_s"]),
-    )
+def planar_geometry(ds: xr.Dataset, normal_stress_ratio: float) -> tuple[PlanarShear, np.ndarray]:
+    """The model cell of one fields file (contact planes, :mod:`pipeline.common.planar_cell`)
+    and the fields' z measured from its bottom plane."""
+    geometry, z0 = planar_cell([ds], normal_stress_ratio)
     return geometry, ds.z.values - z0
 
 
-def creep_profile(ds: xr.Dataset, settings: dict[str, Any]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def creep_profile(ds: xr.Dataset, settings: dict[str, Any], ratio: float
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Points of u_x(z) usable for a log fit: inside the walls, resolved above the DEM noise."""
-    geometry, z = planar_geometry(ds)
-    u, err = ds["u_x"].values, ds["u_x_err"].values
+    geometry, z = planar_geometry(ds, ratio)
+    u, err, _ = creep_speed(ds)
     floor = settings["min_speed_over_wall_speed"] * geometry.wall_speed
     keep = (z > 0.0) & (z < geometry.depth) & (u > floor) & (u > 2.0 * err)
     return z[keep], u[keep], err[keep]
 
 
+def fit_errors(u: np.ndarray, err: np.ndarray) -> np.ndarray:
+    """Errors (m s-1) the non-local fits weight log10 u by: the stated error, floored at
+    LOG_SPEED_ERROR_FLOOR decades (pipeline.common.observables), so the shear band's tiny relative
+    errors do not decide a length that the creep below it measures."""
+    return log_speed_error(u, err) * u * math.log(10.0)
+
+
+def region_residuals(model: str, geometry: PlanarShear, parameters: Any, z: np.ndarray, u: np.ndarray,
+                     n_grid: int = 400) -> dict[str, float]:
+    """RMS of log10(u_model / u_dem) (decades) in the shear band (u > BAND_SPEED V) and in the creep below."""
+    sol = continuum.solve(model, geometry, parameters, n_grid=n_grid)
+    model_u = np.interp(z, sol.z.values, sol.u_x.values)
+    r = np.log10(np.maximum(model_u, np.finfo(float).tiny)) - np.log10(u)
+    band = u > BAND_SPEED * geometry.wall_speed
+    rms = lambda m: float(np.sqrt(np.mean(r[m] ** 2))) if m.any() else float("nan")  # noqa: E731
+    return {"band_rms_decades": rms(band), "creep_rms_decades": rms(~band),
+            "band_points": int(band.sum()), "creep_points": int((~band).sum())}
+
+
 def calibrate(config: dict[str, Any], rheometer_files: list[Path], nonlocal_file: Path | None) -> dict[str, Any]:
     """All parameters with errors and provenance (the content of ``params.json``)."""
     settings = calibration_settings(config)
+    read = [run_label(Path(f)) for f in [*rheometer_files, *([nonlocal_file] if nonlocal_file is not None else [])]]
+    check_calibration_set(config, read)
     states = [bulk_state(Path(f), settings["bulk_margin_over_d"]) for f in rheometer_files]
     if len(states) < 3:
         raise CalibrationError(f"mu(I) has 3 parameters: need at least 3 rheometer states, got {len(states)}")
@@ -164,11 +193,14 @@ def calibrate(config: dict[str, Any], rheometer_files: list[Path], nonlocal_file
             "mu_i": {"names": list(mu_fit.names), "matrix": np.asarray(mu_fit.covariance).tolist()},
             "nu_i": {"names": list(nu_fit.names), "matrix": np.asarray(nu_fit.covariance).tolist()},
         },
+        "normal_stresses": normal_stress_entries(states),
         "rheometer_states": states,
+        # The exact runs this calibration read: every score on a case with one of them is a fit.
+        "calibration_runs": [f"{case}/{run}" for case, run in read],
         "nonlocal": {},
     }
     if nonlocal_file is not None:
-        params["nonlocal"] = calibrate_nonlocal(params, Path(nonlocal_file), settings)
+        params["nonlocal"], params["nonlocal_fit_residuals"] = calibrate_nonlocal(params, Path(nonlocal_file), settings)
     with open_fields(rheometer_files[0]) as first:
         d, rho_s = float(first.attrs["d"]), float(first.attrs["rho_s"])
     params["d"] = d
@@ -177,28 +209,83 @@ def calibrate(config: dict[str, Any], rheometer_files: list[Path], nonlocal_file
     return params
 
 
-def calibrate_nonlocal(params: dict[str, Any], path: Path, settings: dict[str, Any]) -> dict[str, Any]:
-    """NGF A and the Cosserat and volume-averaged l, each fitted to the creep of one run."""
+def normal_stress_entries(states: list[dict[str, Any]]) -> dict[str, Any]:
+    """sigma_aa / p over the rheometer states: the error-weighted mean of each, its error (the
+    larger of the weighted-mean error and the states' scatter over sqrt(n), since the ratio may
+    vary with I), and the normal-stress differences N1 = sigma_xx - sigma_zz, N2 = sigma_zz -
+    sigma_yy over p that the 1D models leave out."""
+    out: dict[str, Any] = {}
+    for name in ("sigma_xx", "sigma_yy", "sigma_zz"):
+        v = np.array([s[f"{name}_over_p"] for s in states])
+        e = np.array([s[f"{name}_over_p_err"] for s in states])
+        w = 1.0 / np.maximum(e, 1e-12) ** 2
+        mean = float(np.sum(w * v) / np.sum(w))
+        err = max(float(1.0 / math.sqrt(np.sum(w))), float(v.std(ddof=1) / math.sqrt(v.size)) if v.size > 1 else 0.0)
+        out[f"{name}_over_p"] = _entry(mean, err, "rheometer", f"states span {v.min():.4f} to {v.max():.4f}")
+    xx, yy, zz = (out[f"sigma_{a}_over_p"]["value"] for a in ("xx", "yy", "zz"))
+    out["N1_over_p"] = _entry(xx - zz, math.hypot(out["sigma_xx_over_p"]["error"], out["sigma_zz_over_p"]["error"]),
+                              "rheometer", "(sigma_xx - sigma_zz) / p; left out of the 1D models")
+    out["N2_over_p"] = _entry(zz - yy, math.hypot(out["sigma_zz_over_p"]["error"], out["sigma_yy_over_p"]["error"]),
+                              "rheometer", "(sigma_zz - sigma_yy) / p; left out of the 1D models")
+    return out
+
+
+def normal_stress_ratio(params: dict[str, Any]) -> float:
+    """sigma_zz / p of the calibration: the models' p is sigma_zz over it (continuum.geometry)."""
+    try:
+        return float(params["normal_stresses"]["sigma_zz_over_p"]["value"])
+    except KeyError:
+        raise CalibrationError("params.json has no normal_stresses.sigma_zz_over_p: written by an older "
+                               "calibration, rerun it") from None
+
+
+def run_label(path: Path) -> tuple[str, str]:
+    """(case, run) of a fields file, from its attributes."""
+    with open_fields(path) as ds:
+        case, run = str(ds.attrs.get("case", "")), str(ds.attrs.get("run", ""))
+    if not case or not run:
+        raise CalibrationError(f"{path}: fields file names no case/run (attributes 'case' and 'run')")
+    return case, run
+
+
+def check_calibration_set(config: dict[str, Any], read: list[tuple[str, str]]) -> None:
+    """Refuse any run outside the config's calibration set (a validation case must never be fitted on)."""
+    allowed = set(calibration_runs(config))
+    stray = [f"{c}/{r}" for c, r in read if (c, r) not in allowed]
+    if stray:
+        raise CalibrationError(
+            f"{', '.join(stray)}: not in the calibration set of the config (the rheometer runs and "
+            f"calibration.nonlocal_case/nonlocal_run); validation cases ({', '.join(validation_cases(config)) or 'none'}) "
+            "are never read by the calibration")
+
+
+def calibrate_nonlocal(params: dict[str, Any], path: Path, settings: dict[str, Any]
+                       ) -> tuple[dict[str, Any], dict[str, dict[str, float]]]:
+    """NGF A and the Cosserat and volume-averaged l, each fitted to the creep of one run, and
+    each fit's log10 residuals in the shear band and in the creep (:func:`region_residuals`)."""
     ds = open_fields(path)
-    geometry, _ = planar_geometry(ds)
-    z, u, err = creep_profile(ds, settings)
+    ratio = normal_stress_ratio(params)
+    geometry, _ = planar_geometry(ds, ratio)
+    z, u, err = creep_profile(ds, settings, ratio)
     where = f"{ds.attrs.get('case', '?')}/{ds.attrs.get('run', path.stem)}"
     if z.size < 4:
         raise CalibrationError(f"{path}: only {z.size} resolved creep points to fit the non-local lengths")
     base = {name: entry["value"] for name, entry in (params["local"] | params["critical_state"]).items()}
     out: dict[str, Any] = {}
     ngf0 = ngf_parameters(base, A=0.48)
-    fit = fits.fit_nonlocal_length("ngf", geometry, lambda a: replace(ngf0, A=a), z, u, err,
+    weights = fit_errors(u, err)
+    fit = fits.fit_nonlocal_length("ngf", geometry, lambda a: replace(ngf0, A=a), z, u, weights,
                                    initial=0.48, bounds=(0.01, 10.0), name="A", case=where)
     at_bound = fit.values["A"] < 0.0101 or fit.values["A"] > 9.99
     out["ngf"] = {"A": _entry(fit.values["A"], fit.errors["A"], where,
                               "the fit sits at a bound of [0.01, 10]: the DEM creep is not NGF-shaped here" if at_bound else "")}
+    residuals = {"ngf": region_residuals("ngf", geometry, replace(ngf0, A=fit.values["A"]), z, u)}
     d = geometry.d
     for model, build in (("cosserat", cosserat_parameters), ("volume_averaged", volume_averaged_parameters)):
         start = build(base, l=d, settings=settings)
         make = lambda l, s=start: replace(s, l=l)  # noqa: E731
         lo, hi = admissible_interval(model, geometry, make, 0.05 * d, 20.0 * d)
-        fit = fits.fit_nonlocal_length(model, geometry, make, z, u, err, initial=math.sqrt(lo * hi),
+        fit = fits.fit_nonlocal_length(model, geometry, make, z, u, weights, initial=math.sqrt(lo * hi),
                                        bounds=(lo, hi), name="l", case=where)
         note = ""
         if lo > 0.05 * d or hi < 20.0 * d:
@@ -206,8 +293,9 @@ def calibrate_nonlocal(params: dict[str, Any], path: Path, settings: dict[str, A
         if fit.values["l"] > 0.99 * hi or fit.values["l"] < 1.01 * lo:
             note += "; the fit sits at a bound of that interval"
         out[model] = {"l": _entry(fit.values["l"], fit.errors["l"], where, note.strip("; "))}
+        residuals[model] = region_residuals(model, geometry, make(fit.values["l"]), z, u)
     ds.close()
-    return out
+    return out, residuals
 
 
 def admissible_interval(model: str, geometry: PlanarShear, make_params: Any, lo: float, hi: float,

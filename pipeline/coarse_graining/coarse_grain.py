@@ -70,6 +70,9 @@ FIELDS: dict[str, tuple[str, str]] = {
     "p": ("Pa", "mean normal stress, trace / 3"),
     "mu": ("1", "stress ratio |sigma_xz| / p"),
     "I": ("1", "inertial number |shear_rate| d / sqrt(p / rho_s)"),
+    "fluidity": ("s-1", "operational granular fluidity shear_rate / mu (Zhang & Kamrin 2017)"),
+    "granular_temperature": ("m2 s-2", "granular temperature: trace of the kinetic stress / (3 rho), velocity "
+                             "fluctuations about the local mean (includes the mean-flow variation within the kernel)"),
 }
 
 
@@ -595,6 +598,8 @@ def derive(sums: np.ndarray, d: float, rho_s: float) -> dict[str, np.ndarray]:
         "sigma_xx": sigma["xx"], "sigma_yy": sigma["yy"], "sigma_zz": sigma["zz"], "sigma_xz": sigma["xz"],
         "sigma_xz_contact": s["c_xz"], "sigma_xz_kinetic": kinetic["xz"], "sigma_zx_contact": s["c_zx"],
         "sigma_zz_kinetic": kinetic["zz"], "p": p, "mu": mu, "I": inertial,
+        "fluidity": ratio(shear_rate, mu, np.isfinite(mu) & (np.nan_to_num(mu) > 0)),
+        "granular_temperature": ratio(kinetic["xx"] + kinetic["yy"] + kinetic["zz"], 3.0 * rho, positive),
     }
 
 

@@ -95,25 +95,54 @@ def body_mass_below(particles: Dump, snapshots: np.ndarray, kernel: Kernel, z_e:
     return below, float(np.sum(m)) / len(snapshots) - below
 
 
+def wall_contacts(particles: Dump, contacts: Dump, s: int) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Contacts of the non-wall grains with each wall's grains at particle snapshot ``s``:
+    per wall, (force on the wall grain (N, rows x 3), contact point z (m))."""
+    rows = particles.rows(s)
+    ids = rows[:, particles.index("id")].astype(np.int64)
+    types = np.zeros(ids.max() + 1, dtype=np.int64)
+    types[ids] = rows[:, particles.index("type")].astype(np.int64)
+    match = np.nonzero(contacts.timesteps == particles.timesteps[s])[0]
+    crow = contacts.rows(int(match[0]))
+    t1 = types[crow[:, contacts.index("id1")].astype(np.int64)]
+    t2 = types[crow[:, contacts.index("id2")].astype(np.int64)]
+    f = crow[:, [contacts.index("fx"), contacts.index("fy"), contacts.index("fz")]]
+    cz = crow[:, contacts.index("cz")]
+    out = {}
+    for name, wall in (("bottom", BOTTOM_WALL_TYPE), ("top", TOP_WALL_TYPE)):
+        # f is the force on particle 1: on a wall grain that is particle 2, the force is -f.
+        first, second = (t1 == wall) & (t2 != wall), (t2 == wall) & (t1 != wall)
+        out[name] = (np.concatenate([f[first], -f[second]]), np.concatenate([cz[first], cz[second]]))
+    return out
+
+
 def contact_wall_forces(particles: Dump, contacts: Dump, snapshots: np.ndarray) -> dict[str, np.ndarray]:
     """Per snapshot, the contact force (N, xyz) of the non-wall grains on each wall's grains,
     summed from the contact dump (the same snapshots the fields average)."""
-    out = {"bottom": [], "top": []}
+    out: dict[str, list[np.ndarray]] = {"bottom": [], "top": []}
     for s in snapshots:
-        rows = particles.rows(s)
-        ids = rows[:, particles.index("id")].astype(np.int64)
-        types = np.zeros(ids.max() + 1, dtype=np.int64)
-        types[ids] = rows[:, particles.index("type")].astype(np.int64)
-        match = np.nonzero(contacts.timesteps == particles.timesteps[s])[0]
-        crow = contacts.rows(int(match[0]))
-        t1 = types[crow[:, contacts.index("id1")].astype(np.int64)]
-        t2 = types[crow[:, contacts.index("id2")].astype(np.int64)]
-        f = crow[:, [contacts.index("fx"), contacts.index("fy"), contacts.index("fz")]]
-        for name, wall in (("bottom", BOTTOM_WALL_TYPE), ("top", TOP_WALL_TYPE)):
-            # f is the force on particle 1: on a wall grain that is particle 2, the force is -f.
-            on_wall = f[(t1 == wall) & (t2 != wall)].sum(axis=0) - f[(t2 == wall) & (t1 != wall)].sum(axis=0)
-            out[name].append(on_wall)
+        for name, (force, _) in wall_contacts(particles, contacts, s).items():
+            out[name].append(force.sum(axis=0))
     return {k: np.array(v) for k, v in out.items()}
+
+
+def contact_planes(particles: Dump, contacts: Dump, snapshots: np.ndarray) -> tuple[float, float]:
+    """Heights (m) where each wall's grains take the bed's load: the mean contact-point height of
+    the bed-wall contacts, weighted by the normal (z) force each carries, over the snapshots.
+
+    A continuum layer bounded by these planes carries the wall forces at its boundaries and the
+    weight of the grains between them; the mean heights of the wall grains' centres lie about a
+    grain radius outside them, and a model bounded there adds bed weight that is not there.
+    """
+    sums = {"bottom": [0.0, 0.0], "top": [0.0, 0.0]}
+    for s in snapshots:
+        for name, (force, cz) in wall_contacts(particles, contacts, s).items():
+            w = np.abs(force[:, 2])
+            sums[name][0] += float(np.sum(w * cz))
+            sums[name][1] += float(np.sum(w))
+    if not (sums["bottom"][1] > 0 and sums["top"][1] > 0):
+        raise ValueError("no loaded bed-wall contacts in the contact dump: cannot place the wall planes")
+    return sums["bottom"][0] / sums["bottom"][1], sums["top"][0] / sums["top"][1]
 
 
 def stress_at(ds: xr.Dataset, name: str, z: float) -> tuple[float, float]:

@@ -35,6 +35,7 @@ from pipeline.coarse_graining.coarse_grain import (CoarseGrainError, Result, che
                                    profile_grid, write_netcdf)
 from pipeline.dumps.store import STORE_NAME, parse_run, read_run_json, read_store
 from pipeline.dumps.reader import Dump, DumpError, shift_periodic_x
+from pipeline.coarse_graining.displacement import displacement_velocity
 from pipeline.coarse_graining.kernels import Kernel
 from pipeline.common.formats import FIELDS_FORMAT_VERSION
 from pipeline.common.provenance import provenance_attrs
@@ -154,6 +155,15 @@ def run_fields(config: dict[str, Any], run_dir: Path, plane: bool = False,
         "z_bottom_wall": walls.bottom_mean, "z_top_wall": walls.top_mean,
         "dump_source": STORE_NAME if (run_dir / STORE_NAME).is_file() else "text dumps",
     })
+    if contacts is not None and not plane and x_shift is None:
+        z_bottom_plane, z_top_plane = field_checks.contact_planes(particles, contacts, chosen)
+        ds.attrs.update({"z_bottom_contact_plane": z_bottom_plane, "z_top_contact_plane": z_top_plane})
+        times = particles.timesteps[chosen] * float(run["time_step"])
+        u_disp, u_disp_err = displacement_velocity(particles, chosen, times, kernel, ds.z.values, int(opts["blocks"]))
+        ds["u_x_disp"] = ("z", u_disp, {"units": "m s-1", "long_name": "velocity along x from the grains' mean "
+                                        "displacement over the window (pipeline.coarse_graining.displacement)"})
+        ds["u_x_disp_err"] = ("z", u_disp_err, {"units": "m s-1", "long_name": "standard error of u_x_disp from "
+                                                f"{min(int(opts['blocks']), chosen.size - 1)} sub-window batch means"})
     found: dict[str, Any] = {}
     if checks and not plane:
         found = physical_checks(ds, run, run_dir, particles, contacts, chosen, kernel, walls, opts)

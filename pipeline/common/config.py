@@ -54,12 +54,26 @@ def _check_consistency(config: dict[str, Any], source: str) -> None:
                 f"bed's weight) exceeds material.design_pressure ({mat['design_pressure']} Pa): its "
                 f"overlaps would exceed material.design_overlap; raise design_pressure"
             )
+    # A config without a calibration section (a DEM run's own, see dem_config) calibrates
+    # nothing: the calibration set is checked where it is named.
+    if "calibration" in config:
+        _check_calibration_set(config, source)
     dem = config["dem"]
     if dem["steady_window_chunks"] > dem["max_shear_chunks"]:
         raise ConfigError(
             f"{source}: dem.steady_window_chunks ({dem['steady_window_chunks']}) exceeds "
             f"dem.max_shear_chunks ({dem['max_shear_chunks']})"
         )
+
+
+def _check_calibration_set(config: dict[str, Any], source: str) -> None:
+    case, run = calibration_runs(config)[-1]
+    if (case, run) not in dem_runs(config):
+        raise ConfigError(f"{source}: calibration.nonlocal_case/nonlocal_run = {case}/{run} is not a DEM run of "
+                          f"this config (runs of {case}: {', '.join(r for c, r in dem_runs(config) if c == case) or 'none'})")
+    if case == RHEOMETER or config["cases"][case]["geometry"] != "planar_shear":
+        raise ConfigError(f"{source}: calibration.nonlocal_case = {case}: the non-local lengths are fitted on a "
+                          "planar case with gravity (its creep), not on the rheometer or an intruder case")
 
 
 def size_classes(d: float, polydispersity: float, n_sizes: int) -> list[float]:
@@ -203,6 +217,24 @@ def liggghts_seed(master_seed: int, *labels: str) -> int:
     return n
 
 
+#: The case whose runs calibrate the local laws (homogeneous shear, no gravity).
+RHEOMETER = "rheometer"
+
+
+def calibration_runs(config: dict[str, Any]) -> list[tuple[str, str]]:
+    """The calibration set: every rheometer run and the one planar run of
+    ``calibration.nonlocal_case/nonlocal_run``. Nothing else may reach the calibration."""
+    calib = config.get("calibration") or {}
+    nonlocal_run = (calib.get("nonlocal_case", "shear_gravity"), calib.get("nonlocal_run", "r1"))
+    return [(c, r) for c, r in dem_runs(config) if c == RHEOMETER] + [nonlocal_run]
+
+
+def validation_cases(config: dict[str, Any]) -> list[str]:
+    """Cases none of whose runs is in the calibration set: their scores are predictions."""
+    used = {c for c, _ in calibration_runs(config)}
+    return [name for name in config["cases"] if name not in used]
+
+
 #: Config sections that do not change what a DEM run computes.
 NON_DEM_SECTIONS = ("coarse_grain", "calibration", "models")
 
@@ -216,4 +248,25 @@ def dem_config(config: dict[str, Any], case: str | None = None) -> dict[str, Any
     if case is not None:
         # A size study adds runs of other cell sizes; it does not change the case's own runs.
         out["cases"] = {case: {k: v for k, v in config["cases"][case].items() if k != "size_study"}}
+    return out
+
+
+def run_config(config: dict[str, Any], case: str, run: str) -> dict[str, Any]:
+    """What one DEM run depends on and nothing more, as a config of its own: :func:`dem_config` of
+    its case, a rheometer case narrowed to the run's own state (``inertial_numbers: [I]`` at its
+    ``wall_pressure``). Adding a rheometer state or another case leaves every other run as it is."""
+    out = dem_config(config, case)
+    if case == RHEOMETER:
+        inertial, pressure = run_state(run)
+        spec = {k: v for k, v in out["cases"][case].items() if k != "extra_states"}
+        out["cases"] = {case: spec | {"inertial_numbers": [inertial], "wall_pressure": pressure}}
+    return out
+
+
+def run_physics(config: dict[str, Any], case: str, run: str) -> dict[str, Any]:
+    """The part of :func:`run_config` that changes what LIGGGHTS computes: without the output
+    folder, the executable and the MPI layout (a run may resume elsewhere or on other ranks)."""
+    out = run_config(config, case, run)
+    out.pop("output_root", None)
+    out["dem"] = {k: v for k, v in out["dem"].items() if k not in ("mpi_ranks", "mpi_launcher", "liggghts")}
     return out

@@ -10,7 +10,7 @@ from pipeline.common.config import dem_runs, size_study_cell
 
 
 #: Figures the report writes as PNG files (flagged with Snakemake's report()).
-REPORT_FIGURES = ("profiles", "calibration", "pareto", "well_posedness", "mesh_convergence", "wall_series")
+REPORT_FIGURES = ("decay_length", "profiles", "calibration", "pareto", "well_posedness", "mesh_convergence", "wall_series")
 
 
 def root(config: dict[str, Any]) -> Path:

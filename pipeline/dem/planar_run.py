@@ -34,7 +34,7 @@ import numpy as np
 import pandas as pd
 
 from pipeline.dem import liggghts_render as render
-from pipeline.common.config import dem_config, derived_seed, liggghts_seed, mean_grain_volume, run_case, run_state, size_classes
+from pipeline.common.config import derived_seed, liggghts_seed, mean_grain_volume, run_case, run_physics, run_state, size_classes
 from pipeline.dem.contact_scaling import ContactDesign, design_contacts
 from pipeline.common.formats import RUN_FORMAT_VERSION
 from pipeline.dem.liggghts_log import DEMRunError, check_run, printed_value
@@ -169,10 +169,10 @@ class PlanarShearRun:
 
     # ----------------------------------------------------------------------------------- state
     def _load_state(self) -> None:
-        # Only what changes the physics: MPI layout and non-DEM sections may differ on resume.
-        dem = {k: v for k, v in self.config["dem"].items() if k not in ("mpi_ranks", "mpi_launcher", "liggghts")}
-        physics = dem_config(self.config, self.case_name) | {"dem": dem}
-        fingerprint = {"config": physics, "case": self.case_name, "run": self.run_id}
+        # Only what changes the physics: the output folder, MPI layout, other runs and non-DEM
+        # sections may differ on resume.
+        fingerprint = {"config": run_physics(self.config, self.case_name, self.run_id), "case": self.case_name,
+                       "run": self.run_id}
         if self.state_path.exists():
             state = json.loads(self.state_path.read_text())
             if state.get("fingerprint") == fingerprint:

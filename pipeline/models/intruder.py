@@ -25,7 +25,8 @@ import continuum
 from continuum.intruder import GridOptions, RodIntruder, intruder_speed
 from pipeline.common.formats import open_fields
 from pipeline.common import atomic
-from pipeline.calibration.calibrate import model_parameters, planar_geometry
+from pipeline.calibration.calibrate import model_parameters, normal_stress_ratio
+from pipeline.common.planar_cell import planar_cell
 from pipeline.common.config import load_config
 from pipeline.common.provenance import provenance_attrs
 
@@ -37,8 +38,10 @@ def predict(model: str, params: dict[str, Any], runs: list[dict[str, Any]], fiel
     parameters = model_parameters(params, model)
     for run, ds in zip(runs, fields, strict=True):
         rod = run["intruder"]
-        geometry, _ = planar_geometry(ds)
-        intruder = RodIntruder.below_top(geometry, rod["diameter"], rod["depth"], rod["force"] / rod["length"])
+        geometry, z0 = planar_cell([ds], normal_stress_ratio(params))
+        # run.json gives the rod's depth below the top wall's grain centres; the cell's top is its contact plane.
+        rod_z = float(ds.attrs["z_top_wall"]) - rod["depth"]
+        intruder = RodIntruder.below_top(geometry, rod["diameter"], z0 + geometry.depth - rod_z, rod["force"] / rod["length"])
         label = f"{run['case']}/{run['run']}"
         try:
             result = intruder_speed(model, geometry, parameters, intruder, float(run["cell"][0]),

@@ -23,9 +23,10 @@ import xarray as xr
 import continuum
 from continuum.geometry import PlanarShear
 from pipeline.common import atomic
-from pipeline.calibration.calibrate import model_parameters
+from pipeline.calibration.calibrate import model_parameters, normal_stress_ratio
 from pipeline.common.config import load_config
 from pipeline.common.formats import FormatError, open_fields
+from pipeline.common.planar_cell import planar_cell
 from pipeline.common.provenance import provenance_attrs
 
 MODELS_DEFAULTS: dict[str, Any] = {"n_grid": 400}
@@ -35,26 +36,15 @@ class ModelRunError(RuntimeError):
     """A model could not be solved on a case; the message names model, case and cause."""
 
 
-def case_geometry(fields: list[xr.Dataset]) -> tuple[PlanarShear, float]:
-    """Mean planar geometry of the replicas, and the mean height of their bottom wall (m)."""
-    def mean(key: str) -> float:
-        return float(np.mean([float(ds.attrs[key]) for ds in fields]))
-
-    z0 = mean("z_bottom_wall")
-    geometry = PlanarShear(
-        depth=mean("z_top_wall") - z0,
-        wall_speed=mean("wall_speed"),
-        wall_pressure=mean("wall_pressure"),
-        gravity=mean("gravity"),
-        d=mean("d"),
-        rho_s=mean("rho_s"),
-    )
-    return geometry, z0
+def case_geometry(fields: list[xr.Dataset], params: dict[str, Any]) -> tuple[PlanarShear, float]:
+    """Mean model cell of the replicas (contact planes, the calibration's sigma_zz / p) and the
+    height of its bottom plane (m): :func:`pipeline.common.planar_cell.planar_cell`."""
+    return planar_cell(fields, normal_stress_ratio(params))
 
 
 def solve_on_case(model: str, case: str, params: dict[str, Any], fields: list[xr.Dataset], n_grid: int) -> xr.Dataset:
     """The model's solution on the case, on the fields' z (see module docstring)."""
-    geometry, z0 = case_geometry(fields)
+    geometry, z0 = case_geometry(fields, params)
     try:
         solution = continuum.solve(model, geometry, model_parameters(params, model), n_grid=n_grid, case=case)
     except continuum.ContinuumError as exc:
@@ -71,7 +61,7 @@ def solve_on_case(model: str, case: str, params: dict[str, Any], fields: list[xr
     out.attrs.update(solution.attrs)
     out.attrs.update({"case": case, "depth": geometry.depth, "wall_speed": geometry.wall_speed,
                       "wall_pressure": geometry.wall_pressure, "gravity": geometry.gravity,
-                      "z_bottom_wall": z0, "d": geometry.d, "rho_s": geometry.rho_s,
+                      "z_bottom_wall": z0, "wall_planes": "contact", "d": geometry.d, "rho_s": geometry.rho_s,
                       "interpolation": "linear from the model grid onto the DEM fields' z"})
     return out
 

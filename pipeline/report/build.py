@@ -69,45 +69,80 @@ class Figures:
 
 
 # ------------------------------------------------------------------------------------ scores
+def _case_table(frame: pd.DataFrame) -> str:
+    """Model x metric values of one case, coloured against the DEM noise, with the noise row."""
+    wide = frame.pivot(index="model", columns="metric", values="value")
+    noise = frame.groupby("metric")["dem_noise"].first()
+    cols = [m for m in HEADLINE_METRICS if m in wide.columns] + sorted(set(wide.columns) - set(HEADLINE_METRICS))
+    table = wide[cols].reset_index()
+    styles = []
+    for _, row in table.iterrows():
+        row_style = [""]
+        for m in cols:
+            v, n = row[m], noise.get(m, float("nan"))
+            if not np.isfinite(v) or (np.isfinite(n) and n > 0 and v > 10 * n):
+                row_style.append("background:#f6c6c6")
+            elif np.isfinite(n) and v <= 2 * n:
+                row_style.append("background:#c8eec8")
+            else:
+                row_style.append("")
+        styles.append(row_style)
+    noise_row = pd.DataFrame([["DEM noise (replica vs replica)"] + [noise.get(m, float("nan")) for m in cols]],
+                             columns=["model"] + cols)
+    return table_html(pd.concat([table, noise_row], ignore_index=True), cell_style=styles + [[""] * (len(cols) + 1)])
+
+
+def ranking_table(scores: pd.DataFrame) -> pd.DataFrame:
+    """Per held-out case and metric: the best model, its value over the DEM noise, the runner-up."""
+    rows = []
+    for (case, metric), frame in scores.groupby(["case", "metric"]):
+        finite = frame[np.isfinite(frame.value)].sort_values("value")
+        if finite.empty:
+            continue
+        best = finite.iloc[0]
+        noise = float(frame.dem_noise.iloc[0])
+        rows.append({"case": case, "metric": metric, "best model": best.model, "value": float(best.value),
+                     "DEM noise": noise, "value / noise": float(best.value / noise) if noise > 0 else float("nan"),
+                     "runner-up": finite.iloc[1].model if len(finite) > 1 else "",
+                     "runner-up value": float(finite.iloc[1].value) if len(finite) > 1 else float("nan"),
+                     "no prediction": ", ".join(sorted(set(frame.model) - set(finite.model)))})
+    return pd.DataFrame(rows)
+
+
 def score_section(root: Path, figures: Figures, nonlocal_where: str) -> str:
     scores = pd.read_csv(root / "scores.csv")
-    parts = ["<h2>Scores against DEM</h2>",
-             "<p class='note'>Each value is the metric between the model and the mean of the DEM replicas; "
-             "<b>dem_noise</b> is the same metric between two replicas: a model whose value is within the "
-             "noise cannot be told apart from the DEM. Green: within 2x the noise; red: more than 10x the noise "
-             "or no creep predicted (inf). Non-local lengths were fitted on "
-             f"<b>{html.escape(nonlocal_where)}</b>: their scores on that case are calibration quality, not "
-             "independent predictions.</p>"]
-    for case, frame in scores.groupby("case"):
-        wide = frame.pivot(index="model", columns="metric", values="value")
-        noise = frame.groupby("metric")["dem_noise"].first()
-        cols = [m for m in HEADLINE_METRICS if m in wide.columns]
-        wide = wide[cols]
-        table = wide.reset_index()
-        styles = []
-        for _, row in table.iterrows():
-            row_style = [""]
-            for m in cols:
-                v, n = row[m], noise.get(m, float("nan"))
-                if not np.isfinite(v) or (np.isfinite(n) and n > 0 and v > 10 * n):
-                    row_style.append("background:#f6c6c6")
-                elif np.isfinite(n) and v <= 2 * n:
-                    row_style.append("background:#c8eec8")
-                else:
-                    row_style.append("")
-            styles.append(row_style)
-        noise_row = pd.DataFrame([["DEM noise (replica vs replica)"] + [noise.get(m, float("nan")) for m in cols]],
-                                 columns=["model"] + cols)
-        parts.append(f"<h3>{html.escape(case)}</h3>")
-        parts.append(table_html(pd.concat([table, noise_row], ignore_index=True), cell_style=styles + [[""] * (len(cols) + 1)]))
-        cost = frame.groupby("model")[["solve_seconds", "n_grid"]].first().reset_index()
-        parts.append(table_html(cost))
+    held, fitted = scores[scores.role == "held_out"], scores[scores.role == "calibration"]
+    parts = ["<h2>Predictions on held-out cases</h2>",
+             "<p class='note'>Every parameter frozen from the calibration runs (the rheometer, and "
+             f"<b>{html.escape(nonlocal_where)}</b> for the non-local lengths); these cases fed no fit. Each value is "
+             "the metric between the model and the mean of the DEM replicas; <b>dem_noise</b> is the same metric "
+             "between two replicas: a model within the noise cannot be told apart from the DEM. Green: within 2x "
+             "the noise; red: more than 10x the noise or no creep predicted (inf).</p>"]
+    if held.empty:
+        parts.append("<p><b>No held-out case in this config</b>: every score below is calibration quality.</p>")
+    else:
+        parts.append("<h3>Best model per case and metric</h3>" + table_html(ranking_table(held)))
+        for case, frame in held.groupby("case"):
+            parts.append(f"<h3>{html.escape(case)} (held out)</h3>" + _case_table(frame))
+    parts.append("<h2>Fit quality on the calibration cases</h2><p class='note'>These cases' runs fed the "
+                 "calibration: the non-local models' scores here measure how well they can be fitted, not how "
+                 "well they predict.</p>")
+    for case, frame in fitted.groupby("case"):
+        parts.append(f"<h3>{html.escape(case)} (calibration)</h3>" + _case_table(frame))
+    cost = scores.groupby(["case", "model"])[["solve_seconds", "n_grid"]].first().reset_index()
+    parts.append("<details><summary>model solve cost per case</summary>" + table_html(cost) + "</details>")
     return "\n".join(parts)
 
 
 def pareto_section(root: Path, figures: Figures) -> str:
     scores = pd.read_csv(root / "scores.csv")
     table = pd.read_csv(root / "cost_accuracy.csv")
+    # The chart ranks predictions: errors on held-out cases (on the calibration case only if there is none).
+    held = sorted(set(scores[scores.role == "held_out"].case) & set(table.case))
+    shown = held or sorted(set(table.case))
+    which = "held-out cases " + ", ".join(held) if held else "the calibration case (no held-out planar case)"
+    table = table[table.case.isin(shown)]
+    scores = scores[scores.case.isin(shown)]
     sweep = table[table.sweep == "grid"]
     tolerance = table[table.sweep == "tolerance"]
     fig, axes = plt.subplots(1, 2, figsize=(11, 4))
@@ -118,9 +153,8 @@ def pareto_section(root: Path, figures: Figures) -> str:
                 continue
             color, ls = MODEL_STYLE.get(model, ("k", "-"))
             ax.plot(sub.solve_seconds * 1e3, sub[metric], color=color, ls=ls, marker="o", ms=3, label=f"{model} ({case})")
-        noise = scores[scores.metric == metric]["dem_noise"].dropna()
-        if len(noise):
-            ax.axhline(noise.iloc[0], color="grey", ls="--", lw=1, label="DEM noise floor")
+        for case, noise in scores[scores.metric == metric].groupby("case")["dem_noise"].first().dropna().items():
+            ax.axhline(noise, color="grey", ls="--", lw=1, label=f"DEM noise floor ({case})")
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel("solve time (ms), grids of 16 to 1024 nodes")
@@ -133,8 +167,8 @@ def pareto_section(root: Path, figures: Figures) -> str:
     failures = sweep[errors != ""]
     failed = "".join(f" {r.model} fails on {r.n_grid} nodes ({r.error[:80]})." for r in failures.itertuples())
     return ("<h2>Accuracy against cost</h2>"
-            + figures.add("pareto", fig, "Error against the DEM of each model over a sweep of grid resolution, "
-                          "against its solve time (best of 3). Points towards the lower left are better.")
+            + figures.add("pareto", fig, f"Error against the DEM on {which}, of each model over a sweep of grid "
+                          "resolution, against its solve time (best of 3). Points towards the lower left are better.")
             + f"<p>{html.escape(cheapest_sentence(scores) + missing + failed)}</p>"
             + "<h3>Solver tolerance</h3><p class='note'>The same errors and solve times on "
             f"{int(tolerance.n_grid.iloc[0]) if len(tolerance) else 0} nodes, against the solver's tolerance (the "
@@ -342,11 +376,62 @@ def calibration_section(root: Path, figures: Figures) -> str:
             if name == "l":
                 name, value, err = "l / d", value / params["d"], err / params["d"]
             rows.append({"group": model, "parameter": name, "value": value, "error": err, "fitted on": e["fitted_on"]})
+    for name, e in params.get("normal_stresses", {}).items():
+        rows.append({"group": "normal stresses", "parameter": name, "value": e["value"], "error": e["error"],
+                     "fitted on": e["fitted_on"]})
+    residuals = pd.DataFrame([{"model": m, **r} for m, r in params.get("nonlocal_fit_residuals", {}).items()])
+    runs = ", ".join(params.get("calibration_runs", []))
     return ("<h2>Calibration</h2><p class='note'>Local laws from the rheometer bulk (3 d from each wall); "
             "errors are one standard error (covariance of weighted least squares). Reference values: glass beads "
-            "mu_s = 0.3819, mu_2 = 0.6435, I_0 = 0.279; frictional spheres mu_s ~ 0.36-0.40, nu_c ~ 0.58-0.59.</p>"
+            "mu_s = 0.3819, mu_2 = 0.6435, I_0 = 0.279; frictional spheres mu_s ~ 0.36-0.40, nu_c ~ 0.58-0.59. "
+            "mu = |sigma_xz| / p with p one third of the trace everywhere; the models' p is sigma_zz / "
+            "(sigma_zz / p of the rheometer), and the walls of every model cell are the planes where the wall "
+            "grains' contacts act.</p>"
+            + f"<p class='note'>Runs read by this calibration: {html.escape(runs)}.</p>"
             + figures.add("calibration", fig, "Rheometer states and the fitted local laws.")
-            + table_html(pd.DataFrame(rows)))
+            + table_html(pd.DataFrame(rows))
+            + ("<h3>Non-local fits: residuals by region</h3><p class='note'>RMS of log10(u_model / u_DEM) in decades, "
+               "in the shear band (u &gt; 0.1 V) and in the creep below; points weighted by their log error, floored "
+               "at 0.1 decade so that the band does not decide the lengths.</p>" + table_html(residuals)
+               if not residuals.empty else ""))
+
+
+def decay_length_section(root: Path, figures: Figures) -> str:
+    """The decay length of creep against mu / mu_s: DEM (every planar case) and the models."""
+    folder = root / "validation"
+    dem = pd.read_csv(folder / "decay_length.csv")
+    models = pd.read_csv(folder / "decay_length_models.csv")
+    fits = pd.read_csv(folder / "decay_length_fit.csv")
+    params = json.loads((root / "calibration" / "params.json").read_text())
+    d, mu_s = float(params["d"]), float(params["local"]["mu_s"]["value"])
+    fig, ax = plt.subplots(figsize=(7.5, 4.5))
+    markers = "os^vD<>"
+    for k, (case, sub) in enumerate(dem.groupby("case")):
+        ax.errorbar(sub.mu_over_mu_s, sub.xi / d, yerr=sub.xi_err / d, fmt=markers[k % len(markers)], ms=4,
+                    color="k", mfc="white" if sub.role.iloc[0] == "held_out" else "k", alpha=0.8,
+                    label=f"DEM {case} ({sub.role.iloc[0].replace('_', '-')})")
+    for (model, case), sub in models.groupby(["model", "case"]):
+        color, ls = MODEL_STYLE.get(model, ("k", "-"))
+        sub = sub.sort_values("mu_over_mu_s")
+        ax.plot(sub.mu_over_mu_s, sub.xi / d, color=color, ls=ls, lw=1.2, label=f"{model}" if case == models.case.iloc[0] else None)
+    dem_fit = fits[fits.source == "dem"]
+    if len(dem_fit) and np.isfinite(dem_fit.iloc[0].get("beta", np.nan)):
+        f = dem_fit.iloc[0]
+        x = np.linspace(max(dem.mu_over_mu_s.min(), 0.05), min(dem.mu_over_mu_s.max(), 0.995), 100)
+        ax.plot(x, f.C * (mu_s * (1 - x)) ** (-f.beta), color="grey", lw=2, alpha=0.6,
+                label=f"DEM fit, beta = {f.beta:.2f} +- {f.beta_err:.2f}")
+    ax.set_yscale("log")
+    ax.set_xlabel("local stress ratio mu / mu_s (-)")
+    ax.set_ylabel("local creep decay length xi / d (-)")
+    ax.legend(fontsize=7)
+    return ("<h2>The decay-length law of creep</h2><p class='note'>xi = 1 / (d ln u_x / dz) over windows of 1 d "
+            "in the creeping zone (u below 0.1 V, resolved at 2 sigma), against the window's mu / mu_s; open markers: "
+            "held-out cases. NGF predicts xi = A d / sqrt(mu_s - mu) (beta = 1/2, as Bouzid et al. 2013 found in DEM); "
+            "the volume-averaged model, in this project's derivation, xi = l (beta = 0). Fit: xi / d = "
+            "C (mu_s - mu)^(-beta) over the windows below yield.</p>"
+            + figures.add("decay_length", fig, "Local creep decay length against the local stress ratio, DEM of every "
+                          "planar case with the fit of the power law, and each model's own xi(mu).")
+            + table_html(fits))
 
 
 # --------------------------------------------------------------------------------- stability
@@ -406,6 +491,16 @@ def dem_table(runs: list[dict[str, Any]]) -> pd.DataFrame:
     } for r in runs])
 
 
+def dem_cost_table(runs: list[dict[str, Any]]) -> pd.DataFrame:
+    """Per case: runs, particle-steps (grains x steps) and LIGGGHTS core-seconds, and the totals."""
+    frame = pd.DataFrame([{"case": r["case"], "runs": 1, "particle-steps": float(r["particle_count"]) * float(r["steps"]),
+                           "core-seconds": float(r["wall_clock_seconds"]) * int(r["mpi_ranks"])} for r in runs])
+    table = frame.groupby("case", sort=False).sum().reset_index()
+    total = pd.DataFrame([{"case": "all", "runs": int(table.runs.sum()), "particle-steps": float(table["particle-steps"].sum()),
+                           "core-seconds": float(table["core-seconds"].sum())}])
+    return pd.concat([table, total], ignore_index=True)
+
+
 def wall_series_figure(runs: list[dict[str, Any]], figures: Figures) -> str:
     """Wall friction coefficient and wall height against time, steady window shaded."""
     fig, (ax_mu, ax_h) = plt.subplots(1, 2, figsize=(11, 4))
@@ -452,6 +547,7 @@ def build_report(config: dict[str, Any], figure_dir: Path | None = None) -> str:
         "nu(I), local critical-state plasticity, Cosserat plasticity, non-local granular fluidity (NGF) and the "
         "volume-averaged non-local model (Dsouza &amp; Nott), all calibrated on the DEM rheometer.</p>",
         score_section(root, figures, ", ".join(where) or "(not fitted)"),
+        decay_length_section(root, figures) if (root / "validation" / "decay_length.csv").exists() else "",
         profiles_section(root, config, figures),
         intruder_section(root, config, figures) if intruder_cases(config) else "",
         calibration_section(root, figures),
@@ -459,6 +555,8 @@ def build_report(config: dict[str, Any], figure_dir: Path | None = None) -> str:
         dem_convergence_section(root, config, figures) if convergence_cases(config) else "",
         stability_section(root, figures),
         "<h2>DEM runs</h2>",
+        "<h3>DEM cost per case</h3>",
+        table_html(dem_cost_table(runs)),
         "<p class='note'>LIGGGHTS, Hertz contacts with tangential history, polydisperse spheres; rough walls "
         "made of grain monolayers. Stiffness and time step follow <code>pipeline/dem/contact_scaling.py</code>.</p>",
         table_html(dem_table(runs)),

@@ -40,7 +40,7 @@ COLUMNS = ["case", "model", "sweep", "n_grid", "tolerance", "solve_seconds", "ve
 def sweep(case: str, field_files: list[Path], params: dict, models: list[str]) -> pd.DataFrame:
     """Error and solve time of each model on each grid of ``N_GRIDS``."""
     reps = replica_profiles(field_files)
-    geometry, z0 = case_geometry(reps)
+    geometry, z0 = case_geometry(reps, params)
     mask = interior(reps[0])
     z = reps[0].z.values
     dem_u, dem_err = mean_profile(reps, "u_x")

@@ -35,7 +35,7 @@ from pipeline.coarse_graining.coarse_grain import block_average
 from pipeline.common.config import load_config, size_study_cell
 from pipeline.coarse_graining.fields import run_fields, settings
 from pipeline.common.formats import open_fields
-from pipeline.scoring.scores import align_replicas, dem_noise, interior, metric_table
+from pipeline.scoring.scores import DEM_VARIABLE, align_replicas, dem_noise, interior, metric_table
 
 #: Shares of the production snapshots in the averaging-time sweep.
 AVERAGING_FRACTIONS = (0.125, 0.25, 0.5, 1.0)
@@ -66,7 +66,7 @@ def noise_rows(reps: list[xr.Dataset]) -> dict[str, float]:
     out = {}
     for metric in NOISE_METRICS:
         variable, fn = table[metric]
-        out[metric] = dem_noise(aligned, variable, fn, mask)
+        out[metric] = dem_noise(aligned, DEM_VARIABLE.get(metric, variable), fn, mask)
     return out
 
 

@@ -106,3 +106,15 @@ def shear_band_width_rel_err(z: np.ndarray, u_model: np.ndarray, u_dem: np.ndarr
 def rmse(a: np.ndarray, b: np.ndarray) -> float:
     """Root-mean-square difference."""
     return float(np.sqrt(np.mean((np.asarray(a) - np.asarray(b)) ** 2)))
+
+
+def log_rmse_resolved(model: np.ndarray, dem: np.ndarray, dem_err: np.ndarray) -> float:
+    """RMS of log10(model / dem) over the points where the DEM value is positive and resolved
+    (above ``RESOLVED_SIGMAS`` errors); inf where the model is not positive there."""
+    model, dem, dem_err = (np.asarray(a, dtype=float) for a in (model, dem, dem_err))
+    mask = np.isfinite(dem) & (dem > RESOLVED_SIGMAS * np.nan_to_num(dem_err, nan=np.inf))
+    if not np.any(mask):
+        raise MetricError("no resolved positive DEM points")
+    if np.any(~(model[mask] > 0.0)):
+        return float("inf")
+    return float(np.sqrt(np.mean((np.log10(model[mask]) - np.log10(dem[mask])) ** 2)))

@@ -24,10 +24,14 @@ import pandas as pd
 import xarray as xr
 
 from pipeline.common import atomic
+from pipeline.common.observables import creep_speed
 from pipeline.scoring import metrics
 from pipeline.scoring.metrics import MetricError, Profile
 
-COLUMNS = ["case", "model", "metric", "value", "dem_noise", "n_grid", "solve_seconds"]
+COLUMNS = ["case", "model", "metric", "value", "dem_noise", "n_grid", "solve_seconds", "role"]
+
+#: ``role`` of a case: a fit where any of its runs fed the calibration, else a prediction.
+ROLES = ("calibration", "held_out")
 WALL_MARGIN_OVER_D = 1.0
 
 
@@ -39,12 +43,24 @@ def replica_profiles(files: list[Path]) -> list[xr.Dataset]:
 
 
 def align_replicas(sets: list[xr.Dataset]) -> list[xr.Dataset]:
-    """Replica profiles, each interpolated onto the first one's z (their walls differ slightly)."""
-    return [sets[0]] + [ds.interp(z=sets[0].z) for ds in sets[1:]]
+    """Replica profiles, each interpolated onto the first one's z (their walls differ slightly),
+    with the creep speed ``u_creep`` (:func:`pipeline.common.observables.creep_speed`) added."""
+    aligned = [sets[0]] + [ds.interp(z=sets[0].z) for ds in sets[1:]]
+    out = []
+    for ds in aligned:
+        u, err, _ = creep_speed(ds)
+        out.append(ds.assign(u_creep=("z", u, {"units": "m s-1", "long_name": "creep speed (u_x or u_x_disp)"}),
+                             u_creep_err=("z", err, {"units": "m s-1", "long_name": "its standard error"})))
+    return out
 
 
 def interior(ds: xr.Dataset) -> np.ndarray:
-    """Mask of the points at least the wall margin from both walls."""
+    """Mask of the points at least the wall margin from both walls' grain centres.
+
+    The wall layer (within ``WALL_MARGIN_OVER_D`` d of a wall's grain centres) is excluded from
+    every profile score: there the grains touch a rigid rough wall, a boundary layer none of the
+    bulk laws describes (its stress ratio is far above the rheometer bulk's at the same I).
+    """
     d = float(ds.attrs["d"])
     z0, z1 = float(ds.attrs["z_bottom_wall"]), float(ds.attrs["z_top_wall"])
     z = ds.z.values
@@ -81,6 +97,9 @@ def metric_table(z: np.ndarray, wall_speed: float) -> dict[str, tuple[str, Calla
     def plain(m, dem, err):
         return metrics.rmse(m, dem)
 
+    def log_fluidity(m, dem, err):
+        return metrics.log_rmse_resolved(m, dem, err)
+
     return {
         "velocity_rmse_rel": ("u_x", vel_rmse),
         "log_velocity_rmse": ("u_x", log_rmse),
@@ -88,7 +107,13 @@ def metric_table(z: np.ndarray, wall_speed: float) -> dict[str, tuple[str, Calla
         "shear_band_width_rel_err": ("u_x", band),
         "nu_rmse": ("nu", plain),
         "mu_rmse": ("mu", plain),
+        "fluidity_log_rmse": ("fluidity", log_fluidity),
     }
+
+
+#: The DEM variable a metric compares the model's variable with, where the two differ: the
+#: creep metrics use the creep speed (u_x or, deeper, the displacement-based u_x_disp).
+DEM_VARIABLE = {"log_velocity_rmse": "u_creep", "decay_length_rel_err": "u_creep"}
 
 
 def dem_noise(reps: list[xr.Dataset], variable: str, fn: Callable[..., float], mask: np.ndarray) -> float:
@@ -116,16 +141,17 @@ def score_case(case: str, field_files: list[Path], model_files: dict[str, Path])
         if not np.allclose(sol.z.values, reps[0].z.values):
             raise ValueError(f"{path}: model z does not match the DEM fields of {case} (solve it on those fields)")
         for metric, (variable, fn) in table.items():
-            if variable not in sol:
-                continue  # the model does not predict this quantity: no row
-            dem, err = mean_profile(reps, variable)
+            if variable not in sol or variable not in reps[0]:
+                continue  # the model does not predict this quantity (or the DEM does not measure it): no row
+            observed = DEM_VARIABLE.get(metric, variable)
+            dem, err = mean_profile(reps, observed)
             try:
                 value = fn(sol[variable].values[mask], dem[mask], err[mask])
             except MetricError:
                 continue
             rows.append({
                 "case": case, "model": model, "metric": metric, "value": value,
-                "dem_noise": dem_noise(reps, variable, fn, mask),
+                "dem_noise": dem_noise(reps, observed, fn, mask),
                 "n_grid": int(sol.attrs["n_grid"]), "solve_seconds": float(sol.attrs["solve_seconds"]),
             })
         sol.close()
@@ -171,12 +197,21 @@ def score_intruder(runs: list[dict], model_files: dict[str, Path]) -> pd.DataFra
     return pd.DataFrame(rows, columns=COLUMNS)
 
 
+def calibration_cases(params: dict) -> set[str]:
+    """Cases any of whose runs the calibration read (``params.json`` ``calibration_runs``)."""
+    if "calibration_runs" not in params:
+        raise ValueError("params.json has no calibration_runs: written by an older calibration, rerun it")
+    return {label.split("/")[0] for label in params["calibration_runs"]}
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description="Score the continuum models against the DEM fields.")
     parser.add_argument("--fields", nargs="+", required=True, type=Path, help="fields/CASE/RUN.nc files")
     parser.add_argument("--models", nargs="+", required=True, type=Path, help="models/CASE/MODEL.nc files")
     parser.add_argument("--intruder-runs", nargs="*", default=[], type=Path, help="run.json of the intruder runs")
     parser.add_argument("--intruder-models", nargs="*", default=[], type=Path, help="models/intruder/MODEL.nc files")
+    parser.add_argument("--params", required=True, type=Path,
+                        help="calibration/params.json: its calibration_runs decide each case's role")
     parser.add_argument("--out", required=True, type=Path)
     args = parser.parse_args(argv)
     frames = []
@@ -188,6 +223,8 @@ def main(argv: list[str] | None = None) -> int:
         model_files = {p.stem: p for p in args.models if p.parent.name == case}
         frames.append(score_case(case, field_files, model_files))
     scores = pd.concat(frames, ignore_index=True)
+    calibrated = calibration_cases(json.loads(args.params.read_text()))
+    scores["role"] = np.where(scores["case"].isin(calibrated), ROLES[0], ROLES[1])
     atomic.write_csv(scores, args.out)
     print(scores.to_string(index=False))
     return 0

@@ -329,7 +329,7 @@ def main(argv: list[str] | None = None) -> int:
     geometry = None
     if args.fields:
         fields = [xr.open_dataset(f) for f in args.fields]
-        geometry, _ = case_geometry(fields)
+        geometry, _ = case_geometry(fields, params)
         for ds in fields:
             ds.close()
     work = args.work or args.out.with_name(args.out.stem + "_runs")

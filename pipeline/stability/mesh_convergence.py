@@ -78,7 +78,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     params = json.loads(args.params.read_text())
     fields = [xr.open_dataset(f) for f in args.fields]
-    geometry, _ = case_geometry(fields)
+    geometry, _ = case_geometry(fields, params)
     for ds in fields:
         ds.close()
     table = study(geometry, params, args.n_grid)

@@ -9,7 +9,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from pipeline.common.config import dem_config, dem_runs, validate_config
+from pipeline.common.config import RHEOMETER, calibration_runs, dem_runs, run_config, validate_config
 from pipeline.common.layout import fields_paths, root
 
 
@@ -48,17 +48,18 @@ def mpi_ranks(config: dict[str, Any]) -> int:
     return int(config["dem"]["mpi_ranks"])
 
 
-def effective_config_file(config: dict[str, Any], dem_case: str | None = None) -> str:
+def effective_config_file(config: dict[str, Any], dem_run: tuple[str, str] | None = None) -> str:
     """Write the validated config (with any ``--config`` overrides) where the rules read it.
 
     The file is rewritten only when its content changes, so an unchanged config does not make
-    Snakemake rerun anything. With ``dem_case`` it holds only what that case's DEM runs depend on
-    (``config.dem.<case>.json``), so changing a model setting or another case does not rerun
-    them. Returns its path.
+    Snakemake rerun anything. With ``dem_run = (case, run)`` it holds only what that DEM run
+    depends on (``config.dem.<case>.<run>.json``, :func:`pipeline.common.config.run_config`), so
+    changing a model setting, another case or another rheometer state does not rerun it.
+    Returns its path.
     """
-    name = f"config.dem.{dem_case}.json" if dem_case else "config.effective.json"
+    name = f"config.dem.{dem_run[0]}.{dem_run[1]}.json" if dem_run else "config.effective.json"
     path = root(config) / name
-    text = json.dumps(dem_config(config, dem_case) if dem_case else config, indent=1, sort_keys=True)
+    text = json.dumps(run_config(config, *dem_run) if dem_run else config, indent=1, sort_keys=True)
     if not path.exists() or path.read_text() != text:
         path.parent.mkdir(parents=True, exist_ok=True)
         tmp = path.with_name(path.name + ".tmp")
@@ -69,12 +70,13 @@ def effective_config_file(config: dict[str, Any], dem_case: str | None = None) -
 
 def nonlocal_calibration_fields(config: dict[str, Any]) -> str:
     """Fields file of the run the non-local parameters are fitted on."""
-    calib = config.get("calibration") or {}
-    case = calib.get("nonlocal_case", "shear_gravity")
-    run = calib.get("nonlocal_run", "r1")
-    if (case, run) not in dem_runs(config):
-        raise ValueError(f"calibration.nonlocal_case/nonlocal_run = {case}/{run} is not a DEM run of this config")
+    case, run = calibration_runs(config)[-1]
     return str(root(config) / "fields" / case / f"{run}.nc")
+
+
+def rheometer_calibration_fields(config: dict[str, Any]) -> list[str]:
+    """Fields files of the rheometer runs (the local laws)."""
+    return [str(root(config) / "fields" / c / f"{r}.nc") for c, r in calibration_runs(config) if c == RHEOMETER]
 
 
 def case_fields(wildcards: Any, config: dict[str, Any]) -> list[str]:

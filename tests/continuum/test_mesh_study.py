@@ -114,6 +114,7 @@ def test_cli_writes_the_contract_table(tmp_path: Path, local_params, ngf_params,
         "local": {k: entry(v) for k, v in dict(mu_s=0.3819, mu_2=0.6435, I_0=0.279, nu_c=0.6, a=0.3).items()},
         "critical_state": {k: entry(v) for k, v in dict(sin_phi=0.3819, nu_ref=0.59, kappa=0.01, p_ref=300.0, n=1.05).items()},
         "nonlocal": {"ngf": {"A": entry(0.48)}, "volume_averaged": {"l": entry(2 * D)}, "cosserat": {"l": entry(D)}},
+        "normal_stresses": {"sigma_zz_over_p": entry(1.0)},
         "d": D, "rho_s": 2500.0,
     }
     (tmp_path / "params.json").write_text(json.dumps(params))
@@ -121,7 +122,8 @@ def test_cli_writes_the_contract_table(tmp_path: Path, local_params, ngf_params,
     files = []
     for k, top in enumerate((g.depth, g.depth * 1.02)):
         ds = xr.Dataset(coords={"z": np.linspace(0.0, 0.1, 5)},
-                        attrs=dict(z_bottom_wall=0.001, z_top_wall=0.001 + top, wall_speed=g.wall_speed,
+                        attrs=dict(z_bottom_wall=0.001, z_top_wall=0.001 + top, z_bottom_contact_plane=0.001,
+                                   z_top_contact_plane=0.001 + top, wall_speed=g.wall_speed,
                                    wall_pressure=g.wall_pressure, gravity=g.gravity, d=D, rho_s=2500.0))
         files.append(tmp_path / f"r{k + 1}.nc")
         ds.to_netcdf(files[-1])

@@ -70,10 +70,12 @@ def test_runs_and_seeds_are_deterministic(config: dict) -> None:
     n_rheo = (len(rheo["inertial_numbers"]) + len(rheo.get("extra_states", []))) * rheo["replicas"]
     # Intruder runs: one per depth and replica, plus the controls (tests/pipeline/test_intruder_run.py).
     n_intruder = sum(1 for case, _ in runs if case == "intruder")
-    gravity = config["cases"]["shear_gravity"]
-    study = gravity.get("size_study", {})
-    n_gravity = gravity["replicas"] + len(study.get("cells", [])) * study.get("replicas", 0)
-    assert len(runs) == n_rheo + n_gravity + n_intruder
+    n_planar = 0
+    for name, case in config["cases"].items():
+        if name != "rheometer" and case["geometry"] == "planar_shear":
+            study = case.get("size_study", {})
+            n_planar += case["replicas"] + len(study.get("cells", [])) * study.get("replicas", 0)
+    assert len(runs) == n_rheo + n_planar + n_intruder
     assert run_state("I0.03-P200-r1") == pytest.approx((0.03, 200.0))
     with pytest.raises(ValueError, match="not a rheometer run id"):
         run_state("r1")

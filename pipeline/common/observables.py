@@ -1,0 +1,36 @@
+"""What a fields file measures, as the calibration and the scores compare it with the models.
+
+One definition each, shared by every stage that reads fields:
+- the creep speed: the snapshot-averaged ``u_x`` or the displacement-based ``u_x_disp``
+  (:mod:`pipeline.coarse_graining.displacement`), whichever has the smaller standard error at
+  each height. Both estimate the same mean velocity; deep in the creeping zone only the
+  displacements resolve it.
+- the stress ratio ``mu = |sigma_xz| / p`` (p one third of the trace), as in the fields files;
+  the models' p is sigma_zz over the rheometer's sigma_zz / p (:mod:`continuum.geometry`).
+"""
+from __future__ import annotations
+
+import numpy as np
+import xarray as xr
+
+#: log10 error floor (decades) of a creep point in the non-local fits and the decay lengths: the
+#: replica-to-replica spread of log10 u_x in the default run is about 0.1 decade, so a point
+#: whose stated error is smaller (the fast shear band) does not weigh more than that.
+LOG_SPEED_ERROR_FLOOR = 0.1
+
+
+def creep_speed(ds: xr.Dataset) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Mean velocity along x (m s-1), its standard error, and True where it is ``u_x_disp``."""
+    u, err = ds["u_x"].values, ds["u_x_err"].values
+    if "u_x_disp" not in ds:
+        return u, err, np.zeros(u.shape, dtype=bool)
+    ud, ed = ds["u_x_disp"].values, ds["u_x_disp_err"].values
+    use = np.isfinite(ud) & np.isfinite(ed) & (~np.isfinite(err) | (ed < err))
+    return np.where(use, ud, u), np.where(use, ed, err), use
+
+
+def log_speed_error(u: np.ndarray, err: np.ndarray) -> np.ndarray:
+    """Standard error of log10 u (decades), floored at :data:`LOG_SPEED_ERROR_FLOOR`."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        raw = err / (np.abs(u) * np.log(10.0))
+    return np.maximum(np.where(np.isfinite(raw), raw, np.inf), LOG_SPEED_ERROR_FLOOR)
