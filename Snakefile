@@ -10,6 +10,9 @@ from pipeline.workflow import targets
 min_version("9.0")
 
 
+report: "docs/report/workflow.rst"
+
+
 # The default config only when none is given: --configfile replaces it rather than being
 # merged into it (a merge would leak default keys into the reduced config).
 if not workflow.overwrite_configfiles:

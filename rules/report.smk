@@ -15,6 +15,7 @@ rule report:
         well_posedness=f"{ROOT}/stability/well_posedness.csv",
         scores=f"{ROOT}/scores.csv",
         decay_length=f"{ROOT}/validation/decay_length.csv",
+        error_check=f"{ROOT}/validation/error_check.csv",
         cost=f"{ROOT}/cost_accuracy.csv",
         intruder_models=layout.intruder_model_paths(config),
         mesh=f"{ROOT}/stability/mesh_convergence.csv",
@@ -24,7 +25,11 @@ rule report:
     output:
         html=f"{ROOT}/report.html",
         figures=[
-            report(f"{ROOT}/figures/{name}.png", category="granular-validate")
+            report(
+                f"{ROOT}/figures/{name}.png",
+                caption=f"../docs/report/{name}.rst",
+                category=layout.REPORT_CATEGORIES[name],
+            )
             for name in layout.report_figures(config)
         ],
     log:

@@ -13,7 +13,7 @@ rule scores:
         intruder_models=layout.intruder_model_paths(config),
         params=f"{ROOT}/calibration/params.json",
     output:
-        f"{ROOT}/scores.csv",
+        report(f"{ROOT}/scores.csv", caption="../docs/report/scores.rst", category="Scoring"),
     log:
         f"{ROOT}/logs/scores.log",
     benchmark:
@@ -88,3 +88,20 @@ rule decay_length:
     shell:
         "python -m pipeline.scoring decay-length --config {input.config} --params {input.params} "
         "--fields {input.fields} --models {input.models} --out {output.table} > {log} 2>&1"
+
+
+rule error_check:
+    message:
+        "Replica scatter against the stated error bars"
+    conda:
+        ENV
+    input:
+        [f for case in layout.scored_cases(config) for f in layout.fields_paths(config, case)],
+    output:
+        f"{ROOT}/validation/error_check.csv",
+    log:
+        f"{ROOT}/logs/error_check.log",
+    benchmark:
+        f"{ROOT}/benchmarks/error_check.tsv"
+    shell:
+        "python -m pipeline.scoring error-check --fields {input} --out {output} > {log} 2>&1"

@@ -85,7 +85,7 @@ def bulk_state(path: Path, margin_over_d: float) -> dict[str, float]:
             f"{path}: fewer than 3 profile points lie {margin_over_d:g} d from both walls "
             f"(walls at {z0:.4g} and {z1:.4g} m, d = {d:.3g} m): the rheometer cell is too thin"
         )
-    out: dict[str, float] = {"file": str(path), "wall_pressure": float(ds.attrs["wall_pressure"])}
+    out: dict[str, float] = {"file": str(path), "wall_pressure": float(ds.attrs["wall_pressure"]), "d": d}
     p = bulk["p"].values
     for name in ("sigma_xx", "sigma_yy", "sigma_zz"):
         ratio = bulk[name].values / p
@@ -94,7 +94,7 @@ def bulk_state(path: Path, margin_over_d: float) -> dict[str, float]:
         # sigma_aa and p share their fluctuations; the error of sigma_aa over p bounds the ratio's.
         out[f"{name}_over_p"] = float(ratio.mean())
         out[f"{name}_over_p_err"] = float((bulk[f"{name}_err"].values / p).mean())
-    for name in ("I", "mu", "nu", "p", "shear_rate"):
+    for name in ("I", "mu", "nu", "p", "shear_rate", "fluidity", "granular_temperature"):
         values = bulk[name].values
         if not np.all(np.isfinite(values)):
             raise CalibrationError(f"{path}: non-finite {name} in the bulk")
@@ -194,6 +194,7 @@ def calibrate(config: dict[str, Any], rheometer_files: list[Path], nonlocal_file
             "nu_i": {"names": list(nu_fit.names), "matrix": np.asarray(nu_fit.covariance).tolist()},
         },
         "normal_stresses": normal_stress_entries(states),
+        "microscopic_fluidity": microscopic_fluidity_fit(states, float(states[0]["d"])),
         "rheometer_states": states,
         # The exact runs this calibration read: every score on a case with one of them is a fit.
         "calibration_runs": [f"{case}/{run}" for case, run in read],
@@ -228,6 +229,40 @@ def normal_stress_entries(states: list[dict[str, Any]]) -> dict[str, Any]:
     out["N2_over_p"] = _entry(zz - yy, math.hypot(out["sigma_zz_over_p"]["error"], out["sigma_yy_over_p"]["error"]),
                               "rheometer", "(sigma_zz - sigma_yy) / p; left out of the 1D models")
     return out
+
+
+def microscopic_fluidity_fit(states: list[dict[str, Any]], d: float) -> dict[str, Any]:
+    """F(nu) of the microscopic fluidity g = (delta_v / d) F(nu) (Zhang & Kamrin 2017), fitted on the
+    rheometer, where g = shear_rate / mu is known: delta_v = sqrt(granular temperature), and
+    ln F = c0 + c1 nu (an exponential in nu, the form chosen here: F must fall steeply as nu rises
+    towards jamming; the data decide c0, c1), by error-weighted least squares in ln F."""
+    g = np.array([s["fluidity"] for s in states])
+    g_err = np.array([s["fluidity_err"] for s in states])
+    temp = np.array([s["granular_temperature"] for s in states])
+    temp_err = np.array([s["granular_temperature_err"] for s in states])
+    nu = np.array([s["nu"] for s in states])
+    f = g * d / np.sqrt(temp)
+    sigma = np.hypot(g_err / g, 0.5 * temp_err / temp)
+    (c1, c0), cov = np.polyfit(nu, np.log(f), 1, w=1.0 / sigma, cov="unscaled")
+    resid = (np.log(f) - (c0 + c1 * nu)) / sigma
+    chi2 = float(np.sum(resid**2) / max(len(f) - 2, 1))
+    scale = math.sqrt(max(chi2, 1.0))
+    return {"form": "g = sqrt(granular_temperature) / d * exp(c0 + c1 nu)",
+            "c0": _entry(c0, math.sqrt(cov[1, 1]) * scale, "rheometer"),
+            "c1": _entry(c1, math.sqrt(cov[0, 0]) * scale, "rheometer"),
+            "chi2_reduced": chi2, "nu_range": [float(nu.min()), float(nu.max())]}
+
+
+def microscopic_fluidity(params: dict[str, Any], nu: np.ndarray, temperature: np.ndarray,
+                         temperature_err: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The microscopic fluidity (s-1) and its error from the fields' nu and granular temperature."""
+    fit = params["microscopic_fluidity"]
+    d = float(params["d"])
+    c0, c1 = fit["c0"]["value"], fit["c1"]["value"]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        g = np.sqrt(np.maximum(temperature, 0.0)) / d * np.exp(c0 + c1 * nu)
+        err = g * 0.5 * temperature_err / temperature
+    return g, err
 
 
 def normal_stress_ratio(params: dict[str, Any]) -> float:

@@ -43,6 +43,7 @@ import scipy.sparse as sp
 import xarray as xr
 
 from pipeline.dumps.reader import Dump, DumpError, read_contacts, read_particles
+from pipeline.common import atomic
 from pipeline.coarse_graining.kernels import KERNELS, Kernel, segment_2d
 
 #: Raw per-snapshot sums (per unit area or length) that all fields derive from.
@@ -603,10 +604,34 @@ def derive(sums: np.ndarray, d: float, rho_s: float) -> dict[str, np.ndarray]:
     }
 
 
-def block_average(stack: np.ndarray, blocks: int, d: float, rho_s: float) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray], int]:
-    """Fields of the mean over snapshots (axis 0) and their block standard errors.
+def integrated_autocorrelation_time(series: np.ndarray, window_factor: float = 5.0) -> np.ndarray:
+    """Integrated autocorrelation time (in samples) of each column of ``series`` (time on axis 0),
+    ``tau = 1/2 + sum_{k=1}^{M} rho(k)`` with Sokal's self-consistent window (the smallest M with
+    M >= window_factor * tau(M)); at least 1/2 (uncorrelated samples). NaN where a column is not finite."""
+    n = series.shape[0]
+    x = series - series.mean(axis=0)
+    spectrum = np.fft.rfft(x, n=2 * n, axis=0)
+    acov = np.fft.irfft(spectrum * np.conj(spectrum), axis=0)[:n]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rho = acov / acov[:1]
+    tau = 0.5 + np.cumsum(rho[1:], axis=0)  # tau(M) for M = 1 .. n-1
+    m = np.arange(1, n)[:, None] if series.ndim > 1 else np.arange(1, n)
+    shape = (n - 1,) + (1,) * (series.ndim - 1)
+    ok = m.reshape(shape) >= window_factor * tau
+    first = np.where(ok.any(axis=0), ok.argmax(axis=0), n - 2)
+    out = np.take_along_axis(tau, first[None, ...], axis=0)[0]
+    return np.where(np.isfinite(out), np.maximum(out, 0.5), np.nan)
 
-    Returns (fields, errors, blocks used). With fewer than 2 snapshots the errors are NaN."""
+
+def block_average(stack: np.ndarray, blocks: int, d: float, rho_s: float) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray], int]:
+    """Fields of the mean over snapshots (axis 0) and their standard errors.
+
+    The error of each field is the larger of two estimates: the scatter of ``blocks`` consecutive
+    block means over sqrt(blocks), and the standard deviation of the per-snapshot field times
+    sqrt(2 tau / n), tau the integrated autocorrelation time (:func:`integrated_autocorrelation_time`).
+    Block means alone understate the error when the correlation time is not short against a block
+    (a load-controlled wall oscillates slowly); the autocorrelation estimate alone is noisy with
+    few snapshots. Returns (fields, errors, blocks used). With fewer than 2 snapshots the errors are NaN."""
     n = stack.shape[0]
     used = min(blocks, n)
     if used < 2:
@@ -617,13 +642,21 @@ def block_average(stack: np.ndarray, blocks: int, d: float, rho_s: float) -> tup
     parts = np.array_split(np.arange(n), used)
     means = np.stack([stack.mean(axis=0)] + [stack[idx].mean(axis=0) for idx in parts], axis=1)
     everything = derive(means, d, rho_s)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        per_snapshot = derive(np.moveaxis(stack, 0, 1), d, rho_s)
     fields = {k: v[0] for k, v in everything.items()}
     errors = {}
     for name in fields:
         values = everything[name][1:]
         finite = np.all(np.isfinite(values), axis=0)
         safe = np.where(finite, values, 0.0)
-        errors[name] = np.where(finite, safe.std(axis=0, ddof=1) / math.sqrt(used), np.nan)
+        block_err = np.where(finite, safe.std(axis=0, ddof=1) / math.sqrt(used), np.nan)
+        series = per_snapshot[name]
+        good = np.all(np.isfinite(series), axis=0)
+        clean = np.where(good, series, 0.0)
+        tau = integrated_autocorrelation_time(clean)
+        ac_err = np.where(good, clean.std(axis=0, ddof=1) * np.sqrt(2.0 * np.nan_to_num(tau, nan=0.5) / n), 0.0)
+        errors[name] = np.where(finite, np.maximum(block_err, ac_err), np.nan)
     return fields, errors, used
 
 
@@ -673,8 +706,8 @@ def coarse_grain(particles: Dump, contacts: Dump | None, kernel: Kernel, grid: G
     variables = {}
     for name, (units, long_name) in FIELDS.items():
         variables[name] = (dims, fields[name], {"units": units, "long_name": long_name})
-        variables[f"{name}_err"] = (dims, errors[name], {"units": units, "long_name": f"standard error of {long_name} "
-                                                          f"from {used} block averages over time"})
+        variables[f"{name}_err"] = (dims, errors[name], {"units": units, "long_name": f"standard error of {long_name}: "
+                                                          f"the larger of {used} block means and the autocorrelation-time estimate"})
     steps = particles.timesteps[chosen]
     attrs: dict[str, Any] = {
         "kernel": kernel.name, "width": kernel.width, "kernel_cutoff": kernel.cutoff,
@@ -770,13 +803,5 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def write_netcdf(ds: xr.Dataset, path: Path) -> None:
-    """Write atomically: a temporary name in the same folder, renamed when complete."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp")
-    try:
-        ds.to_netcdf(tmp, engine="netcdf4")
-        tmp.replace(path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+    """Write a fields dataset atomically with its CF metadata (:func:`pipeline.common.atomic.write_netcdf`)."""
+    atomic.write_netcdf(ds, Path(path), title="granular-validate coarse-grained fields")

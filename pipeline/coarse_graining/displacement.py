@@ -10,7 +10,9 @@ to 1/sqrt(T) (diffusive), whatever the snapshot count.
 Definition, per grain i of the body (type 1): ``X_i`` = x unwrapped across the periodic
 boundary from one snapshot to the next by the minimum image (valid while no grain moves half a
 cell between two snapshots, which is checked), ``v_i = (X_i(t_end) - X_i(t_start)) / (t_end -
-t_start)``, at the grain's time-mean height ``z_i``. The field is the mass-weighted kernel
+t_start)``, at the grain's time-mean height ``z_i``. Grains that move too far between two
+snapshots to be unwrapped are not tracked, and the field is NaN where they carry more than
+``UNTRACKED_WEIGHT_LIMIT`` of the kernel weight (the fast shear band of a run with few snapshots). The field is the mass-weighted kernel
 average ``u_x_disp(z) = sum_i m_i v_i phi(z - z_i) / sum_i m_i phi(z - z_i)`` with the kernel of
 the other fields. Its standard error is the batch-means error over ``blocks`` consecutive
 sub-windows of equal length: the full-window value is the mean of the sub-window values, so the
@@ -29,16 +31,24 @@ from pipeline.coarse_graining.kernels import Kernel
 from pipeline.dumps.reader import Dump
 
 
+#: Largest step along x (fraction of the cell length) between two snapshots a grain may make to be tracked.
+UNWRAP_LIMIT = 0.25
+#: Largest share of the kernel weight at a height that untracked grains may carry: above it the
+#: field is not defined there (NaN), since leaving the fast grains out would bias it low.
+UNTRACKED_WEIGHT_LIMIT = 0.01
+
+
 class DisplacementError(ValueError):
     """The snapshots cannot give displacements (grains change between snapshots, or jump)."""
 
 
 def grain_tracks(particles: Dump, snapshots: np.ndarray, body_types: tuple[int, ...] = (1,)
-                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Unwrapped x (m) of every body grain at every chosen snapshot, their z (m) and masses (kg).
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Unwrapped x (m) of every body grain at every chosen snapshot, their z (m), masses (kg) and
+    whether each could be tracked (no step above ``UNWRAP_LIMIT`` of the cell between snapshots).
 
-    Returns ``(x, z, m)`` with ``x`` and ``z`` of shape (snapshots, grains). Grains are matched
-    by id (dumps need not be sorted).
+    Returns ``(x, z, m, tracked)`` with ``x`` and ``z`` of shape (snapshots, grains). Grains are
+    matched by id (dumps need not be sorted).
     """
     ids0 = None
     xs, zs, mass = [], [], None
@@ -58,11 +68,11 @@ def grain_tracks(particles: Dump, snapshots: np.ndarray, body_types: tuple[int, 
     lx = float(particles.boxes[snapshots[0]][0, 1] - particles.boxes[snapshots[0]][0, 0])
     step = np.diff(x, axis=0)
     step -= lx * np.round(step / lx)
-    if step.size and np.abs(step).max() > 0.25 * lx:
-        raise DisplacementError(f"{', '.join(particles.sources)}: a grain moved {np.abs(step).max():.3g} m along x "
-                                f"between two snapshots (cell {lx:.3g} m): snapshots too far apart to unwrap")
+    # A grain that moves more than a quarter cell between two snapshots cannot be unwrapped with
+    # confidence (the minimum image is ambiguous near half a cell): it is not tracked.
+    tracked = np.all(np.abs(step) <= UNWRAP_LIMIT * lx, axis=0) if step.size else np.ones(x.shape[1], dtype=bool)
     unwrapped = np.concatenate([x[:1], x[:1] + np.cumsum(step, axis=0)]) if step.size else x
-    return unwrapped, z, mass
+    return unwrapped, z, mass, tracked
 
 
 def _profile(v: np.ndarray, zbar: np.ndarray, m: np.ndarray, kernel: Kernel, z_grid: np.ndarray) -> np.ndarray:
@@ -79,11 +89,18 @@ def displacement_velocity(particles: Dump, snapshots: np.ndarray, times: np.ndar
     snapshots = np.asarray(snapshots)
     if snapshots.size < 2:
         raise DisplacementError("displacements need at least two snapshots in the window")
-    x, z, m = grain_tracks(particles, snapshots)
+    x, z, m, tracked = grain_tracks(particles, snapshots)
     duration = float(times[-1] - times[0])
     if not duration > 0:
         raise DisplacementError("the averaging window has zero duration")
+    zbar = z.mean(axis=0)
+    weight = kernel.pdf(z_grid[:, None] - zbar[None, :]) * m[None, :]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        untracked = (weight[:, ~tracked].sum(axis=1)) / weight.sum(axis=1)
+    undefined = ~(untracked <= UNTRACKED_WEIGHT_LIMIT)
+    x, z, m = x[:, tracked], z[:, tracked], m[tracked]
     u = _profile((x[-1] - x[0]) / duration, z.mean(axis=0), m, kernel, z_grid)
+    u[undefined] = np.nan
     used = min(int(blocks), snapshots.size - 1)
     if used < 2:
         return u, np.full_like(u, np.nan)
@@ -94,4 +111,5 @@ def displacement_velocity(particles: Dump, snapshots: np.ndarray, times: np.ndar
         parts.append(_profile((x[b] - x[a]) / dt, z[a:b + 1].mean(axis=0), m, kernel, z_grid))
     parts = np.array(parts)
     err = parts.std(axis=0, ddof=1) / math.sqrt(used)
+    err[undefined] = np.nan
     return u, err

@@ -17,6 +17,7 @@
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -47,11 +48,21 @@ def momentum_balance(ds: xr.Dataset, gravity: float, z_lo: float, z_hi: float) -
     szz = ds.variables["sigma_zz"].values[bulk]
     rho = ds.variables["rho_body"].values[bulk]
     s = szz + gravity * _cumulative(rho, zb)
-    slope = float(np.polyfit(zb, szz, 1)[0])
+    (slope, _), cov = np.polyfit(zb, szz, 1, cov="unscaled", w=1.0 / ds.variables["sigma_zz_err"].values[bulk])
+    slope = float(slope)
     expected = float(-gravity * np.mean(rho))
     xz_err = float(np.mean(ds.variables["sigma_xz_err"].values[bulk]))
     zz_err = float(np.mean(ds.variables["sigma_zz_err"].values[bulk]))
+    # The points share grains through the kernel (about width / spacing of them per independent
+    # value): the straight-line fit's error, which takes them as independent, is scaled by its root.
+    spacing = float(zb[1] - zb[0])
+    shared = max(float(ds.attrs.get("width", spacing)) / spacing, 1.0)
+    slope_err = float(math.sqrt(cov[0, 0] * shared))
     return {
+        "residual_xz_over_err": float(np.max(np.abs(sxz - sxz.mean())) / xz_err),
+        "residual_zz_over_err": float(np.max(np.abs(s - s.mean())) / zz_err),
+        "slope_zz_err": slope_err,
+        "slope_zz_deviation_over_err": float((slope - expected) / slope_err),
         "p_bulk": p,
         "residual_xz": float(np.max(np.abs(sxz - sxz.mean())) / p),
         "residual_zz": float(np.max(np.abs(s - s.mean())) / p),

@@ -12,17 +12,23 @@ from typing import Any
 import pandas as pd
 import xarray as xr
 
+from pipeline.common import cf
+
 
 def _tmp(path: Path) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     return path.with_name(path.name + ".tmp")
 
 
-def write_netcdf(dataset: xr.Dataset, path: Path) -> None:
-    """``dataset.to_netcdf(path)``, atomically."""
+def write_netcdf(dataset: xr.Dataset, path: Path, title: str | None = None) -> None:
+    """``dataset.to_netcdf(path)`` with the CF-1.10 metadata of :mod:`pipeline.common.cf`, atomically."""
     tmp = _tmp(Path(path))
-    dataset.to_netcdf(tmp)
-    tmp.replace(path)
+    try:
+        cf.apply(dataset, title).to_netcdf(tmp, engine="netcdf4")
+        tmp.replace(path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
 
 
 def write_csv(frame: pd.DataFrame, path: Path) -> None:

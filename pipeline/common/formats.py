@@ -16,8 +16,9 @@ from typing import Any
 
 #: Layout of run.json (pipeline.dem.planar_run). Raise when a key is renamed, removed or changes meaning.
 RUN_FORMAT_VERSION = 1
-#: Layout of fields/{case}/{run}.nc (pipeline.coarse_graining.fields).
-FIELDS_FORMAT_VERSION = 1
+#: Layout of fields/{case}/{run}.nc (pipeline.coarse_graining.fields). 2: errors include the
+#: autocorrelation time; fluidity, granular_temperature; u_x_disp and the wall contact planes.
+FIELDS_FORMAT_VERSION = 2
 
 #: Keys an unversioned run.json must hold: the dump lists and the contact column names, whose
 #: absence (older layouts mapped generic c_pgl[k] names implicitly) would be read without error.

@@ -445,6 +445,8 @@ class PlanarShearRun:
         self._load_state()
         if "fill" not in self.state:
             self._fill()
+            print(f"{self.label}: fill and settle done, {self.state['fill']['settled_gap'] / self.mat['d']:.1f} d "
+                  f"between the walls, {self.state['wall_seconds']:.1f} s", flush=True)
         plan = self._chunk_plan()
         window = self.dem["steady_window_chunks"]
         while self.state["steady"] is None:
@@ -462,11 +464,42 @@ class PlanarShearRun:
                     f"{self.label}: no steady state after {len(shear)} shear chunks (dem.max_shear_chunks); "
                     f"last drift test: force {test.get('force')}, height {test.get('height')}"
                 )
-            self._run_chunk("shear", len(shear), plan)
+            self._progress(self._run_chunk("shear", len(shear), plan), plan)
         produced = [c for c in self.state["chunks"] if c["kind"] == "production"]
         for index in range(len(produced), plan["production_chunks"]):
-            self._run_chunk("production", index, plan)
+            self._progress(self._run_chunk("production", index, plan), plan)
         return self._record(plan)
+
+    def _progress(self, chunk: dict[str, Any], plan: dict[str, int]) -> None:
+        """One line per chunk on stdout (the rule's log): where the run stands and what is left.
+
+        The shear stage ends when the steady-state test passes, so its length is not known in
+        advance: the estimate counts the chunks still needed at the least (the test's window and
+        the production) and says so.
+        """
+        chunks = self.state["chunks"]
+        shear = [c for c in chunks if c["kind"] == "shear"]
+        produced = [c for c in chunks if c["kind"] == "production"]
+        window = self.dem["steady_window_chunks"]
+        strain = self.dem["chunk_strain"]
+        rate = chunk["steps"] * self.case["n_grains"] / max(chunk["wall_seconds"], 1e-9)
+        if chunk["kind"] == "shear":
+            test = self.state.get("last_steady_test")
+            margin = (f"steady test: force drift {abs(test['force']['drift']) / test['force']['allowed']:.2f}, "
+                      f"height drift {abs(test['height']['drift']) / test['height']['allowed']:.2f} of allowed"
+                      if test else f"steady test from chunk {window}")
+            left = max(window - len(shear), 0) + plan["production_chunks"]
+            where = f"shear {len(shear)} (strain {len(shear) * strain:g}, at most {self.dem['max_shear_chunks'] * strain:g})"
+            bound = "at least "
+        else:
+            margin = "steady"
+            left = plan["production_chunks"] - len(produced)
+            where = (f"production {len(produced)}/{plan['production_chunks']} (strain {len(produced) * strain:g} "
+                     f"of {plan['production_chunks'] * strain:g})")
+            bound = ""
+        mean_seconds = sum(c["wall_seconds"] for c in chunks) / max(len(chunks), 1)
+        print(f"{self.label}: {where}; {margin}; {chunk['wall_seconds']:.1f} s, {rate / 1e6:.2f} M particle-steps/s; "
+              f"left: {bound}{left} chunks, ~{left * mean_seconds:.0f} s", flush=True)
 
     def pair_force_sum(self, shear: float) -> dict[str, float] | None:
         """Mean x sum of all contact forces over production (N), relative to ``shear``, the mean

@@ -42,6 +42,18 @@ def case_geometry(fields: list[xr.Dataset], params: dict[str, Any]) -> tuple[Pla
     return planar_cell(fields, normal_stress_ratio(params))
 
 
+def calibrated_range(solution: xr.Dataset, geometry: PlanarShear, params: dict[str, Any]) -> dict[str, Any]:
+    """The largest inertial number the solution reaches against the largest the rheometer measured:
+    above it the local laws are extrapolated (``outside_calibrated_range`` = 1)."""
+    measured = max(float(s["I"]) for s in params["rheometer_states"])
+    if "shear_rate" not in solution or "p" not in solution:
+        return {"I_max_calibrated": measured}
+    p = np.maximum(solution["p"].values, 1e-300)
+    inertial = np.abs(solution["shear_rate"].values) * geometry.d / np.sqrt(p / geometry.rho_s)
+    reached = float(np.nanmax(inertial)) if np.isfinite(inertial).any() else float("nan")
+    return {"I_max_solution": reached, "I_max_calibrated": measured, "outside_calibrated_range": int(reached > measured)}
+
+
 def solve_on_case(model: str, case: str, params: dict[str, Any], fields: list[xr.Dataset], n_grid: int) -> xr.Dataset:
     """The model's solution on the case, on the fields' z (see module docstring)."""
     geometry, z0 = case_geometry(fields, params)
@@ -59,6 +71,7 @@ def solve_on_case(model: str, case: str, params: dict[str, Any], fields: list[xr
     for name, var in solution.data_vars.items():
         out[name] = ("z", np.interp(z_model, solution.z.values, var.values), dict(var.attrs))
     out.attrs.update(solution.attrs)
+    out.attrs.update(calibrated_range(solution, geometry, params))
     out.attrs.update({"case": case, "depth": geometry.depth, "wall_speed": geometry.wall_speed,
                       "wall_pressure": geometry.wall_pressure, "gravity": geometry.gravity,
                       "z_bottom_wall": z0, "wall_planes": "contact", "d": geometry.d, "rho_s": geometry.rho_s,

@@ -28,6 +28,7 @@ from pipeline.report.html import figure_html, page, table_html
 from pipeline.common.provenance import software_versions
 from pipeline.common.layout import convergence_cases, convergence_paths, fields_paths, intruder_cases, model_names, scored_cases
 from pipeline.dem.wall_series import read_wall_series
+from pipeline.scoring.scores import align_replicas
 
 MODEL_STYLE = {
     "local_mu_i": ("tab:blue", "-"),
@@ -231,17 +232,25 @@ def cheapest_sentence(scores: pd.DataFrame, metric: str = "velocity_rmse_rel", f
 
 # ---------------------------------------------------------------------------------- profiles
 def profiles_section(root: Path, config: dict[str, Any], figures: Figures) -> str:
-    parts = ["<h2>Profiles</h2>"]
+    parts = ["<h2>Profiles</h2><p class='note'>Second panel: the creep speed, u_x or the displacement-based "
+             "u_x_disp where its error is smaller (deep creep). Last panel: the operational fluidity "
+             "shear_rate / mu, NGF's own field.</p>"]
+    panels = (("u_x", "u_x / V (-)"), ("u_creep", "creep speed / V (-), log axis"), ("nu", "solid fraction nu (-)"),
+              ("mu", "stress ratio mu = |sigma_xz| / p (-)"), ("fluidity", "fluidity g = shear_rate / mu (s-1), log axis"))
+    flagged = []
     for case in scored_cases(config):
-        reps = [open_fields(Path(f)) for f in fields_paths(config, case)]
+        reps = align_replicas([open_fields(Path(f)) for f in fields_paths(config, case)])
         z0 = float(reps[0].attrs["z_bottom_wall"])
         d = float(reps[0].attrs["d"])
         V = float(reps[0].attrs["wall_speed"])
-        fig, axes = plt.subplots(1, 4, figsize=(15, 5), sharey=True)
+        scale = {"u_x": V, "u_creep": V}
+        fig, axes = plt.subplots(1, len(panels), figsize=(16, 5), sharey=True)
         for k, ds in enumerate(reps):
             zz = (ds.z.values - z0) / d
-            for ax, (name, scale) in zip(axes, (("u_x", V), ("u_x", V), ("nu", 1.0), ("mu", 1.0))):
-                y, e = ds[name].values / scale, ds[f"{name}_err"].values / scale
+            for ax, (name, _) in zip(axes, panels):
+                if name not in ds:
+                    continue
+                y, e = ds[name].values / scale.get(name, 1.0), ds[f"{name}_err"].values / scale.get(name, 1.0)
                 ax.plot(y, zz, color="k", lw=1, label="DEM replicas" if k == 0 else None)
                 ax.fill_betweenx(zz, y - e, y + e, color="k", alpha=0.15)
         for model in model_names(config):
@@ -249,21 +258,28 @@ def profiles_section(root: Path, config: dict[str, Any], figures: Figures) -> st
             if not path.exists():
                 continue
             sol = xr.open_dataset(path)
+            if int(sol.attrs.get("outside_calibrated_range", 0)):
+                flagged.append(f"{model} on {case} reaches I = {sol.attrs['I_max_solution']:.3g}, beyond the "
+                               f"rheometer's largest I = {sol.attrs['I_max_calibrated']:.3g}")
             zz = (sol.z.values - z0) / d
             color, ls = MODEL_STYLE.get(model, ("grey", "-"))
-            for ax, (name, scale) in zip(axes, (("u_x", V), ("u_x", V), ("nu", 1.0), ("mu", 1.0))):
-                if name in sol:
-                    ax.plot(sol[name].values / scale, zz, color=color, ls=ls, lw=1.5, label=model)
+            for ax, (name, _) in zip(axes, panels):
+                source = "u_x" if name == "u_creep" else name
+                if source in sol:
+                    ax.plot(sol[source].values / scale.get(name, 1.0), zz, color=color, ls=ls, lw=1.5, label=model)
+            sol.close()
         axes[1].set_xscale("log")
-        axes[1].set_xlim(1e-7, 2)
-        axes[0].set_xlabel("u_x / V (-)")
-        axes[1].set_xlabel("u_x / V (-), log axis")
-        axes[2].set_xlabel("solid fraction nu (-)")
-        axes[3].set_xlabel("stress ratio mu = |sigma_xz| / p (-)")
-        axes[0].set_ylabel("height above the bottom wall, z / d (-)")
+        axes[1].set_xlim(1e-6, 2)
+        axes[4].set_xscale("log")
+        for ax, (_, label) in zip(axes, panels):
+            ax.set_xlabel(label, fontsize=8)
+        axes[0].set_ylabel("height above the bottom wall's grain centres, z / d (-)")
         axes[0].legend(fontsize=7)
         parts.append(figures.add("profiles" if case == scored_cases(config)[0] else f"profiles_{case}", fig,
                                  f"{case}: DEM (black, one line per replica, band = standard error) and every model."))
+    if flagged:
+        parts.append("<p><b>Outside the calibrated range:</b> " + html.escape("; ".join(flagged))
+                     + " (the local laws are extrapolated there).</p>")
     return "\n".join(parts)
 
 
@@ -564,6 +580,10 @@ def build_report(config: dict[str, Any], figure_dir: Path | None = None) -> str:
         "<h3>Coarse-graining checks</h3><p class='note'>Momentum balance residuals in the bulk and coarse-grained "
         "stress at the walls against the wall forces LIGGGHTS reports (fractions of p).</p>",
         table_html(fields_checks_table(root, config)),
+        "<h3>Error bars against the replica scatter</h3><p class='note'>chi2 = mean of (a - b)^2 / (err_a^2 + "
+        "err_b^2) over the interior points and replica pairs: 1 when the stated errors hold (chi2_err: its own "
+        "standard error).</p>",
+        table_html(pd.read_csv(root / "validation" / "error_check.csv")) if (root / "validation" / "error_check.csv").exists() else "",
         "<h2>Provenance</h2>",
         table_html(pd.DataFrame(sorted(software_versions().items()), columns=["software", "version"])),
         f"<details><summary>configuration</summary><pre>{html.escape(json.dumps(config, indent=1))}</pre></details>",

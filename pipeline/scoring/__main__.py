@@ -5,6 +5,7 @@ COMMANDS = {
     "scores": ("pipeline.scoring.scores", "scores.csv: every model against the DEM, with the replica noise floor"),
     "cost-accuracy": ("pipeline.scoring.cost_accuracy", "error against solve time over grid and tolerance sweeps"),
     "dem-convergence": ("pipeline.scoring.dem_convergence", "DEM field noise against core-seconds"),
+    "error-check": ("pipeline.scoring.error_check", "validation/error_check.csv: replica scatter against the stated errors"),
     "decay-length": ("pipeline.scoring.decay_length", "validation/decay_length.csv: creep decay length against mu, DEM and models"),
 }
 

@@ -33,7 +33,9 @@ import xarray as xr
 from pipeline.common import atomic
 from pipeline.coarse_graining.coarse_grain import block_average
 from pipeline.common.config import load_config, size_study_cell
-from pipeline.coarse_graining.fields import run_fields, settings
+from pipeline.coarse_graining.displacement import displacement_velocity
+from pipeline.coarse_graining.fields import load_tables, run_fields, settings, steady_snapshots
+from pipeline.coarse_graining.kernels import Kernel
 from pipeline.common.formats import open_fields
 from pipeline.scoring.scores import DEM_VARIABLE, align_replicas, dem_noise, interior, metric_table
 
@@ -83,17 +85,28 @@ def truncated_fields(result_ds: xr.Dataset, sums: np.ndarray, n: int, blocks: in
 
 def averaging_sweep(config: dict[str, Any], case: str, run_dirs: list[Path]) -> list[dict[str, Any]]:
     """Noise against averaging time over the case's replicas."""
-    blocks = int(settings(config)["blocks"])
-    results, runs = [], []
+    opts = settings(config)
+    blocks = int(opts["blocks"])
+    results, runs, tracks = [], [], []
     for run_dir in run_dirs:
         result, _ = run_fields(config, run_dir, checks=False)
         results.append(result)
-        runs.append(json.loads((run_dir / "run.json").read_text()))
+        run = json.loads((run_dir / "run.json").read_text())
+        runs.append(run)
+        particles, _ = load_tables(run_dir, run)
+        tracks.append((particles, steady_snapshots(particles, run), float(run["time_step"]),
+                       Kernel(opts["kernel"], opts["width_over_d"] * float(run["d"]))))
     n_snap = min(r.sums.shape[0] for r in results)
     rows = []
     for fraction in AVERAGING_FRACTIONS:
         n = max(2, int(round(fraction * n_snap)))
-        reps = [truncated_fields(r.dataset, r.sums, n, blocks) for r in results]
+        reps = []
+        for result, (particles, chosen, dt, kernel) in zip(results, tracks):
+            ds = truncated_fields(result.dataset, result.sums, n, blocks)
+            # The displacement-based creep speed over the same shorter window (the creep metrics use it).
+            u, err = displacement_velocity(particles, chosen[:n], particles.timesteps[chosen[:n]] * dt, kernel,
+                                           ds.z.values, blocks)
+            reps.append(ds.assign(u_x_disp=("z", u), u_x_disp_err=("z", err)))
         used = n / n_snap
         costs = [t + used * p for t, p in map(run_cost, runs)]
         strain = float(np.mean([production_strain(r) for r in runs])) * used

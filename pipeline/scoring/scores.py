@@ -23,6 +23,7 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
+from pipeline.calibration.calibrate import microscopic_fluidity
 from pipeline.common import atomic
 from pipeline.common.observables import creep_speed
 from pipeline.scoring import metrics
@@ -108,12 +109,14 @@ def metric_table(z: np.ndarray, wall_speed: float) -> dict[str, tuple[str, Calla
         "nu_rmse": ("nu", plain),
         "mu_rmse": ("mu", plain),
         "fluidity_log_rmse": ("fluidity", log_fluidity),
+        "fluidity_micro_log_rmse": ("fluidity", log_fluidity),
     }
 
 
 #: The DEM variable a metric compares the model's variable with, where the two differ: the
 #: creep metrics use the creep speed (u_x or, deeper, the displacement-based u_x_disp).
-DEM_VARIABLE = {"log_velocity_rmse": "u_creep", "decay_length_rel_err": "u_creep"}
+DEM_VARIABLE = {"log_velocity_rmse": "u_creep", "decay_length_rel_err": "u_creep",
+                "fluidity_micro_log_rmse": "fluidity_micro"}
 
 
 def dem_noise(reps: list[xr.Dataset], variable: str, fn: Callable[..., float], mask: np.ndarray) -> float:
@@ -128,9 +131,22 @@ def dem_noise(reps: list[xr.Dataset], variable: str, fn: Callable[..., float], m
     return float(np.mean(finite)) if finite else float("nan")
 
 
-def score_case(case: str, field_files: list[Path], model_files: dict[str, Path]) -> pd.DataFrame:
-    """All metric rows of one case."""
-    reps = replica_profiles(field_files)
+def with_microscopic_fluidity(reps: list[xr.Dataset], params: dict | None) -> list[xr.Dataset]:
+    """Replicas with ``fluidity_micro`` (Zhang & Kamrin 2017, F(nu) from the calibration) added."""
+    if params is None or "microscopic_fluidity" not in params:
+        return reps
+    out = []
+    for ds in reps:
+        g, err = microscopic_fluidity(params, ds["nu"].values, ds["granular_temperature"].values,
+                                      ds["granular_temperature_err"].values)
+        out.append(ds.assign(fluidity_micro=("z", g, {"units": "s-1", "long_name": "microscopic fluidity"}),
+                             fluidity_micro_err=("z", err, {"units": "s-1", "long_name": "its standard error"})))
+    return out
+
+
+def score_case(case: str, field_files: list[Path], model_files: dict[str, Path], params: dict | None = None) -> pd.DataFrame:
+    """All metric rows of one case (``params``: the calibration, for the microscopic fluidity)."""
+    reps = with_microscopic_fluidity(replica_profiles(field_files), params)
     mask = interior(reps[0])
     z = reps[0].z.values[mask]
     wall_speed = float(reps[0].attrs["wall_speed"])
@@ -141,9 +157,9 @@ def score_case(case: str, field_files: list[Path], model_files: dict[str, Path])
         if not np.allclose(sol.z.values, reps[0].z.values):
             raise ValueError(f"{path}: model z does not match the DEM fields of {case} (solve it on those fields)")
         for metric, (variable, fn) in table.items():
-            if variable not in sol or variable not in reps[0]:
-                continue  # the model does not predict this quantity (or the DEM does not measure it): no row
             observed = DEM_VARIABLE.get(metric, variable)
+            if variable not in sol or observed not in reps[0]:
+                continue  # the model does not predict this quantity (or the DEM does not measure it): no row
             dem, err = mean_profile(reps, observed)
             try:
                 value = fn(sol[variable].values[mask], dem[mask], err[mask])
@@ -218,12 +234,13 @@ def main(argv: list[str] | None = None) -> int:
     if args.intruder_models:
         runs = [json.loads(p.read_text()) for p in args.intruder_runs]
         frames.append(score_intruder(runs, {p.stem: p for p in args.intruder_models}))
+    params = json.loads(args.params.read_text())
     for case in sorted({p.parent.name for p in args.models}):
         field_files = sorted(p for p in args.fields if p.parent.name == case)
         model_files = {p.stem: p for p in args.models if p.parent.name == case}
-        frames.append(score_case(case, field_files, model_files))
+        frames.append(score_case(case, field_files, model_files, params))
     scores = pd.concat(frames, ignore_index=True)
-    calibrated = calibration_cases(json.loads(args.params.read_text()))
+    calibrated = calibration_cases(params)
     scores["role"] = np.where(scores["case"].isin(calibrated), ROLES[0], ROLES[1])
     atomic.write_csv(scores, args.out)
     print(scores.to_string(index=False))

@@ -236,8 +236,8 @@ def fields_file(path: Path, version: int | None = formats.FIELDS_FORMAT_VERSION,
     """A minimal fields file of a shear_gravity cell (the attributes the models read)."""
     z = np.linspace(0.0, depth, 31)
     ds = xr.Dataset({name: ("z", np.ones_like(z)) for name in formats.FIELDS_REQUIRED_VARS}, coords={"z": z})
-    ds.attrs.update(d=0.002, rho_s=2500.0, z_bottom_wall=0.0, z_top_wall=depth, wall_speed=0.1,
-                    wall_pressure=200.0, gravity=9.81)
+    ds.attrs.update(d=0.002, rho_s=2500.0, z_bottom_wall=0.0, z_top_wall=depth, z_bottom_contact_plane=0.0,
+                    z_top_contact_plane=depth, wall_speed=0.1, wall_pressure=200.0, gravity=9.81)
     if version is not None:
         ds.attrs["format_version"] = version
     ds.to_netcdf(path)

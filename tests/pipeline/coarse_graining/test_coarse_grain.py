@@ -388,3 +388,16 @@ def test_segment_with_tabulated_cdf_is_the_same(rng):
     u1, u2 = rng.uniform(-4e-3, 4e-3, (2, 50, 7))
     u2[0, 0] = u1[0, 0]  # a short branch
     np.testing.assert_array_equal(kernel.segment(u1, u2, kernel.cdf(u1), kernel.cdf(u2)), kernel.segment(u1, u2))
+
+
+def test_integrated_autocorrelation_time_of_known_processes(rng):
+    from pipeline.coarse_graining.coarse_grain import integrated_autocorrelation_time
+    # White noise: tau = 1/2. AR(1) with coefficient phi: tau = (1 + phi) / (2 (1 - phi)).
+    white = rng.standard_normal((20000, 2))
+    assert np.allclose(integrated_autocorrelation_time(white), 0.5, atol=0.05)
+    phi = 0.8
+    x = np.zeros((20000, 2))
+    noise = rng.standard_normal(x.shape)
+    for t in range(1, x.shape[0]):
+        x[t] = phi * x[t - 1] + noise[t]
+    assert np.allclose(integrated_autocorrelation_time(x), (1 + phi) / (2 * (1 - phi)), rtol=0.15)

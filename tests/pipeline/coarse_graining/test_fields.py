@@ -209,3 +209,41 @@ def test_real_bulk_values_do_not_depend_on_width(sg_fields):
         # nu and rho barely fluctuate in time; for them compare to 1 % of the value.
         allowed = 2 * math.hypot(ea, eb) + (0.01 * abs(float(va.mean())) if name in ("nu", "rho") else 0.0)
         assert diff <= allowed, (name, diff, allowed)
+
+
+
+@pytest.mark.workflow
+def test_displacement_speed_agrees_with_the_snapshot_speed_and_planes_sit_inside_the_walls(reduced_results: Path) -> None:
+    for path in sorted((reduced_results / "fields" / "shear_gravity").glob("r*.nc")):
+        ds = xr.open_dataset(path)
+        d = float(ds.attrs["d"])
+        # The bed-wall contacts act between the wall grains' centres and the bed, within a grain.
+        assert 0.0 < ds.attrs["z_bottom_contact_plane"] - ds.attrs["z_bottom_wall"] < d
+        assert 0.0 < ds.attrs["z_top_wall"] - ds.attrs["z_top_contact_plane"] < d
+        z = ds.z.values
+        inside = (z > ds.attrs["z_bottom_wall"] + 1.5 * d) & (z < ds.attrs["z_top_wall"] - 1.5 * d)
+        # Two estimates of the same mean velocity: their difference within the combined errors.
+        diff = np.abs(ds.u_x.values - ds.u_x_disp.values)[inside]
+        scale = np.hypot(ds.u_x_err.values, ds.u_x_disp_err.values)[inside]
+        assert np.mean(diff < 3.0 * scale) > 0.9, path
+        # Deep in the creep the displacements resolve what the snapshots do not.
+        deep = inside & (ds.u_x.values < 0.01 * ds.attrs["wall_speed"])
+        assert np.median(ds.u_x_disp_err.values[deep]) < np.median(ds.u_x_err.values[deep])
+        ds.close()
+
+
+@pytest.mark.workflow
+def test_fields_files_are_cf_and_cf_xarray_finds_axes_and_errors(reduced_results: Path) -> None:
+    import cf_xarray  # noqa: F401  (registers the .cf accessor)
+
+    ds = xr.open_dataset(reduced_results / "fields" / "shear_gravity" / "r1.nc")
+    assert ds.attrs["Conventions"] == "CF-1.10" and ds.attrs["title"] and ds.attrs["history"] and ds.attrs["source"]
+    assert ds.cf.axes["Z"] == ["z"]
+    assert ds["z"].attrs["positive"] == "up"
+    assert ds.cf["u_x"].attrs["ancillary_variables"] == "u_x_err"
+    assert "u_x_err" in ds.cf.get_associated_variable_names("u_x")["ancillary_variables"]
+    assert ds["nu"].attrs["cell_methods"] == "time: mean"
+    for key, value in ds.attrs.items():
+        if not isinstance(value, str) and not key.endswith("_units"):
+            assert f"{key}_units" in ds.attrs, key
+    ds.close()

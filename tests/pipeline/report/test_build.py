@@ -20,3 +20,32 @@ def test_report_lists_every_run_and_embeds_its_figures(reduced_results: Path) ->
     # Every rule left a log and a benchmark.
     assert list((reduced_results / "benchmarks").rglob("*.tsv"))
     assert list((reduced_results / "logs").rglob("*.log"))
+
+
+def test_report_opens_with_the_held_out_predictions(reduced_results: Path) -> None:
+    html = (reduced_results / "report.html").read_text()
+    held = html.index("<h2>Predictions on held-out cases</h2>")
+    fitted = html.index("<h2>Fit quality on the calibration cases</h2>")
+    assert held < fitted < html.index("<h2>The decay-length law of creep</h2>")
+    # the held-out tables name the validation cases, the calibration one shear_gravity
+    for case in ("shear_gravity_heavy", "shear_gravity_fast", "intruder"):
+        assert f"<h3>{case} (held out)</h3>" in html[held:fitted]
+    assert "<h3>shear_gravity (calibration)</h3>" in html[fitted:]
+    assert "held-out cases" in html  # the accuracy-against-cost chart is drawn on them
+
+
+def test_snakemake_report_archive_holds_the_captioned_figures(reduced_results: Path, tmp_path: Path) -> None:
+    import subprocess
+    import sys
+    import zipfile
+
+    repo = Path(__file__).resolve().parents[3]
+    archive = tmp_path / "report.zip"
+    cmd = [sys.executable, "-m", "snakemake", "--report", str(archive), "--configfile", "config/ci.yaml",
+           "--config", f"output_root={reduced_results}", "--directory", str(repo), "--snakefile", str(repo / "Snakefile")]
+    proc = subprocess.run(cmd, cwd=repo, capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    names = zipfile.ZipFile(archive).namelist()
+    for figure in ("decay_length.png", "profiles.png", "calibration.png", "pareto.png"):
+        assert any(n.endswith(figure) for n in names), (figure, names[:20])
+    assert any(n.endswith("scores.csv") for n in names)
