@@ -45,6 +45,7 @@ rule all:
     input:
         f"{ROOT}/report.html",
         layout.intruder_plane_paths(config),
+        [f"{ROOT}/paraview/{case}.pvd" for case in layout.scored_cases(config)],
 
 
 # The stages, in the order the data flows through them.

@@ -42,3 +42,20 @@ rule intruder_fields:
         run_dir=targets.run_folder_of_input,
     shell:
         "python -m pipeline.coarse_graining rod-frame --config {input.config} --run-dir {params.run_dir} --out {output.nc} > {log} 2>&1"
+
+
+rule paraview:
+    message:
+        "The fields of {wildcards.case} as one ParaView collection"
+    conda:
+        ENV
+    input:
+        case_fields,
+    output:
+        f"{ROOT}/paraview/{{case}}.pvd",
+    log:
+        f"{ROOT}/logs/paraview/{{case}}.log",
+    benchmark:
+        f"{ROOT}/benchmarks/paraview/{{case}}.tsv"
+    shell:
+        "python -m pipeline.coarse_graining paraview --fields {input} --out {output} > {log} 2>&1"

@@ -45,6 +45,7 @@ import xarray as xr
 from pipeline.dumps.reader import Dump, DumpError, read_contacts, read_particles
 from pipeline.common import atomic
 from pipeline.coarse_graining.kernels import KERNELS, Kernel, segment_2d
+from pipeline.coarse_graining.vtk import write_fields_vtk
 
 #: Raw per-snapshot sums (per unit area or length) that all fields derive from.
 SUMS = ("mass", "mass_body", "volume", "mom_x", "mom_y", "mom_z", "mvv_xx", "mvv_yy", "mvv_zz", "mvv_xz",
@@ -757,7 +758,10 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--blocks", type=int, default=5, help="blocks for the standard errors (default 5)")
     parser.add_argument("--body-types", default="all",
                         help="particle types gravity acts on, for rho_body (comma list, or 'all')")
-    parser.add_argument("--rho-s", type=float, default=None, help="particle density (default: from mass and radius)")
+    parser.add_argument("--rho-s", type=float, default=None,
+                        help="grain density in kg m-3 (default: from mass and radius; needed when the dump has no mass)")
+    parser.add_argument("--diameter", type=float, default=None,
+                        help="grain diameter in m, for a dump without a radius or diameter column (monodisperse)")
     parser.add_argument("--d", type=float, default=None, help="particle diameter for I (default: mean diameter)")
     return parser
 
@@ -765,7 +769,7 @@ def _parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     try:
-        particles = read_particles(args.particle_dump)
+        particles = read_particles(args.particle_dump, rho_s=args.rho_s, diameter=args.diameter)
         names = None
         if args.contact_columns:
             names = [n for n in args.contact_columns.replace(",", " ").split() if n]
@@ -797,6 +801,8 @@ def main(argv: list[str] | None = None) -> int:
     ds.attrs["particle_dumps"] = " ".join(str(p) for p in args.particle_dump)
     ds.attrs["contact_dumps"] = " ".join(str(p) for p in args.contacts or [])
     write_netcdf(ds, args.out)
+    if args.plane:
+        print(f"{write_fields_vtk(ds, args.out.with_suffix('.vts'))}: the x-z fields for ParaView")
     print(f"{args.out}: {ds.attrs['number_of_snapshots']} snapshots, grid {dict(ds.sizes)}, "
           f"{result.seconds:.2f} s")
     return 0

@@ -37,6 +37,7 @@ from pipeline.dumps.store import STORE_NAME, parse_run, read_run_json, read_stor
 from pipeline.dumps.reader import Dump, DumpError, shift_periodic_x
 from pipeline.coarse_graining.displacement import displacement_velocity
 from pipeline.coarse_graining.kernels import Kernel
+from pipeline.coarse_graining.vtk import write_fields_vtk, write_particles_vtu
 from pipeline.common.formats import FIELDS_FORMAT_VERSION
 from pipeline.common.provenance import provenance_attrs
 from pipeline.dem.wall_series import read_wall_series
@@ -204,30 +205,15 @@ def physical_checks(ds: xr.Dataset, run: dict[str, Any], run_dir: Path, particle
     return out
 
 
-def write_vtk(ds: xr.Dataset, path: Path) -> Path:
-    """x-z fields as a VTK structured grid (one cell thick in y) for ParaView, written atomically."""
-    import pyvista as pv
-
-    x, z = ds["x"].values, ds["z"].values
-    xx, yy, zz = np.meshgrid(x, [0.0], z, indexing="ij")
-    grid = pv.StructuredGrid(xx, yy, zz)
-    for name in ds.data_vars:
-        if ds[name].dims == ("x", "z"):
-            # VTK points run x fastest: Fortran order of the (x, y, z) array.
-            grid.point_data[name] = np.asarray(ds[name].values)[:, None, :].ravel(order="F")
-    path = Path(path)
-    tmp = path.with_name(f".{path.stem}.tmp{path.suffix}")
-    grid.save(tmp)
-    tmp.replace(path)
-    return path
-
-
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--config", type=Path, required=True)
     parser.add_argument("--run-dir", type=Path, required=True, help="RESULTS/dem/CASE/RUN")
     parser.add_argument("--out", type=Path, required=True, help="RESULTS/fields/CASE/RUN.nc")
     parser.add_argument("--plane", choices=("xz",), default=None, help="x-z fields (also writes a .vts)")
+    parser.add_argument("--particles-vtk", type=Path, default=None, metavar="DIR",
+                        help="also write the grains of every averaged snapshot as DIR/particles_*.vtu and "
+                             "DIR/particles.pvd (radius, velocity, type) for ParaView")
     args = parser.parse_args(argv)
     from pipeline.common.config import load_config
 
@@ -241,7 +227,12 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     write_netcdf(result.dataset, args.out)
     if plane:
-        write_vtk(result.dataset, args.out.with_suffix(".vts"))
+        write_fields_vtk(result.dataset, args.out.with_suffix(".vts"))
+    if args.particles_vtk is not None:
+        particles, _ = load_tables(args.run_dir, run)
+        collection = write_particles_vtu(particles, steady_snapshots(particles, run), args.particles_vtk,
+                                         time_step=float(run["time_step"]))
+        print(f"{collection}: the grains of the averaged snapshots")
     summary = ", ".join(f"{k}={v:.4g}" for k, v in checks.items()
                         if k in ("balance_residual_xz", "balance_residual_zz") or k.endswith("_residual"))
     print(f"{args.out}: {result.dataset.attrs['number_of_snapshots']} snapshots in {result.seconds:.2f} s; {summary}")

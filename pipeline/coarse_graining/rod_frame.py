@@ -27,7 +27,8 @@ from pipeline.coarse_graining.coarse_grain import CoarseGrainError
 from pipeline.common.config import load_config
 from pipeline.dumps.store import read_run_json
 from pipeline.dumps.reader import Dump, DumpError
-from pipeline.coarse_graining.fields import run_fields, write_vtk
+from pipeline.coarse_graining.fields import run_fields
+from pipeline.coarse_graining.vtk import write_fields_vtk
 
 #: LIGGGHTS atom type of the rod's grains (liggghts_inputs/common_settings.in).
 ROD_TYPE = 4
@@ -85,7 +86,7 @@ def main(argv: list[str] | None = None) -> int:
     except (DumpError, CoarseGrainError, ValueError, KeyError) as err:
         print(f"error: {args.run_dir}: {err}", file=sys.stderr)
         return 1
-    write_vtk(ds, args.out.with_suffix(".vts"))
+    write_fields_vtk(ds, args.out.with_suffix(".vts"))
     atomic.write_netcdf(ds, args.out)
     print(f"{args.out}: {ds.attrs['number_of_snapshots']} snapshots, rod at x = {ds.attrs['rod_centre_x']:.4g} m")
     return 0

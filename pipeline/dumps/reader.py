@@ -16,6 +16,7 @@ Anything else fails with :class:`DumpError` naming the file and the line.
 """
 from __future__ import annotations
 
+import gzip
 import mmap
 import os
 import re
@@ -52,6 +53,9 @@ CONTACT_SYNONYMS: dict[str, str] = {
 }
 _NONBLANK = re.compile(rb"\S")
 _GENERIC = re.compile(r"^[cfv]_[A-Za-z0-9_]+\[(\d+)\]$")
+
+
+GZIP_MAGIC = b"\x1f\x8b"
 
 
 class DumpError(ValueError):
@@ -228,6 +232,19 @@ def read_dump(path: str | Path, threads: int | None = None) -> Dump:
         raise DumpError(f"{path}: dump file not found")
     if path.stat().st_size == 0:
         raise DumpError(f"{path}:1: empty file")
+    with open(path, "rb") as handle:
+        gzipped = handle.read(2) == GZIP_MAGIC
+    if gzipped:
+        # gzip (as LAMMPS writes with dump ... .gz, or users compress): decompressed in memory,
+        # whatever the file's name; line numbers in messages are those of the decompressed text.
+        try:
+            with gzip.open(path, "rb") as handle:
+                raw_bytes = handle.read()
+        except (OSError, EOFError) as exc:
+            raise DumpError(f"{path}: not a readable gzip file ({exc})") from None
+        if not raw_bytes:
+            raise DumpError(f"{path}:1: empty file (after decompression)")
+        return _read_mapped(raw_bytes, path, threads)
     # A read-only map: pages are read as the parser threads reach them, overlapping I/O and parsing.
     with open(path, "rb") as handle:
         raw = mmap.mmap(handle.fileno(), 0, access=mmap.ACCESS_READ)
@@ -237,7 +254,7 @@ def read_dump(path: str | Path, threads: int | None = None) -> Dump:
         raw.close()
 
 
-def _read_mapped(raw: mmap.mmap, path: Path, threads: int | None) -> Dump:
+def _read_mapped(raw: mmap.mmap | bytes, path: Path, threads: int | None) -> Dump:
     kind, names, boundary, blocks = _scan(raw, path)
     ncols = len(names)
     counts = np.array([b.n for b in blocks], dtype=np.int64)
@@ -314,8 +331,14 @@ def _header_line(dump: Dump) -> int:
     return 9  # the column header of the first snapshot is always line 9
 
 
-def particle_view(dump: Dump) -> Dump:
-    """Resolve particle-column spellings: ``xu``/``xs`` to ``x``, ``diameter`` to ``radius``."""
+def particle_view(dump: Dump, rho_s: float | None = None, diameter: float | None = None) -> Dump:
+    """Resolve particle-column spellings: ``xu``/``xs`` to ``x``, ``diameter`` to ``radius``.
+
+    A dump without ``radius`` (or ``diameter``) takes the single grain diameter ``diameter`` (m)
+    when given; a dump without ``mass`` takes ``rho_s * pi d^3 / 6`` from each grain's size when
+    the grain density ``rho_s`` (kg m-3) is given. Neither is ever assumed: without them such a
+    dump is refused, naming the option that supplies the column.
+    """
     if dump.kind != "atoms":
         raise DumpError(f"{dump.sources[0]}:3: not a particle dump ('ITEM: NUMBER OF ATOMS' expected)")
     names = list(dump.columns)
@@ -338,7 +361,23 @@ def particle_view(dump: Dump) -> Dump:
         data = data.copy() if data is dump.data else data
         data[:, j] *= 0.5
         names[j] = "radius"
-    out = _rename(Dump(dump.kind, dump.columns, dump.timesteps, dump.boxes, dump.boundary, dump.offsets, data,
+    columns = list(dump.columns)
+    if "radius" not in names:
+        if diameter is None:
+            raise DumpError(f"{dump.sources[0]}:9: no radius or diameter column: give the grain diameter "
+                            "(--diameter, m) for a monodisperse dump")
+        data = np.column_stack([data, np.full(data.shape[0], 0.5 * diameter)])
+        names.append("radius")
+        columns.append("radius")
+    if "mass" not in names:
+        if rho_s is None:
+            raise DumpError(f"{dump.sources[0]}:9: no mass column: give the grain density (--rho-s, kg m-3) "
+                            "and the mass follows from each grain's radius")
+        radius = data[:, names.index("radius")]
+        data = np.column_stack([data, rho_s * 4.0 / 3.0 * np.pi * radius**3])
+        names.append("mass")
+        columns.append("mass")
+    out = _rename(Dump(dump.kind, tuple(columns), dump.timesteps, dump.boxes, dump.boundary, dump.offsets, data,
                        dump.sources), tuple(names))
     _require(out, PARTICLE_REQUIRED, "a particle dump needs x y z vx vy vz radius mass")
     return out
@@ -373,10 +412,13 @@ def contact_view(dump: Dump, names: Sequence[str] | Mapping[str, str] | None = N
     return view
 
 
-def read_particles(paths: Sequence[str | Path] | str | Path, threads: int | None = None) -> Dump:
-    """Read particle dumps (one or several chunks, duplicate boundary steps dropped)."""
+def read_particles(paths: Sequence[str | Path] | str | Path, threads: int | None = None,
+                   rho_s: float | None = None, diameter: float | None = None) -> Dump:
+    """Read particle dumps (one or several chunks or per-snapshot files, plain or gzip, duplicate
+    boundary steps dropped); ``rho_s`` and ``diameter`` supply a missing mass or size column
+    (:func:`particle_view`)."""
     paths = [paths] if isinstance(paths, (str, Path)) else list(paths)
-    return particle_view(concat([read_dump(p, threads) for p in paths]))
+    return particle_view(concat([read_dump(p, threads) for p in paths]), rho_s=rho_s, diameter=diameter)
 
 
 def read_contacts(paths: Sequence[str | Path] | str | Path,

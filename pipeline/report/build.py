@@ -37,6 +37,8 @@ MODEL_STYLE = {
     "ngf": ("tab:red", "-"),
     "volume_averaged": ("tab:purple", ":"),
 }
+#: Figures embedded as PNG (colour maps); every other one is line art, embedded as SVG.
+RASTER_FIGURES = ("intruder_field", "well_posedness")
 HEADLINE_METRICS = ("log_velocity_rmse", "velocity_rmse_rel", "decay_length_rel_err", "shear_band_width_rel_err", "nu_rmse", "mu_rmse")
 
 
@@ -66,7 +68,7 @@ class Figures:
     def add(self, name: str, fig: plt.Figure, caption: str) -> str:
         if self.folder is not None:
             fig.savefig(self.folder / f"{name}.png", dpi=110, bbox_inches="tight")
-        return figure_html(fig, caption)
+        return figure_html(fig, caption, vector=name not in RASTER_FIGURES)
 
 
 # ------------------------------------------------------------------------------------ scores
@@ -518,24 +520,31 @@ def dem_cost_table(runs: list[dict[str, Any]]) -> pd.DataFrame:
 
 
 def wall_series_figure(runs: list[dict[str, Any]], figures: Figures) -> str:
-    """Wall friction coefficient and wall height against time, steady window shaded."""
-    fig, (ax_mu, ax_h) = plt.subplots(1, 2, figsize=(11, 4))
-    for r in runs:
-        files = sorted((r["_dir"] / "series").glob("shear_*.txt")) + sorted((r["_dir"] / "series").glob("production_*.txt"))
-        frames = [read_wall_series(s) for s in files]
-        data = pd.concat(frames, ignore_index=True).sort_values("time")
-        area = r["cell"][0] * r["cell"][1]
-        label = f"{r['case']}/{r['run']}"
-        (line,) = ax_mu.plot(data["time"], -data["ftop_x"] / area / r["wall_pressure"], lw=0.8, label=label)
-        ax_h.plot(data["time"], (data["h_top"] - data["h_top"].iloc[-1]) / r["d"], lw=0.8, color=line.get_color())
-        t0, t1 = r["steady_state_window"]
-        ax_mu.axvspan(t0, t1, color=line.get_color(), alpha=0.08)
-    ax_mu.set_xlabel("time t (s)")
-    ax_mu.set_ylabel("wall shear stress / wall pressure (-)")
-    ax_h.set_xlabel("time t (s)")
-    ax_h.set_ylabel("top-wall height minus final height, in d (-)")
-    ax_mu.legend(fontsize=6)
-    return figures.add("wall_series", fig, "Top-wall shear stress over the imposed normal stress, and wall height; shaded: steady window detected from the data.")
+    """Wall friction coefficient and wall height against time, steady window shaded: one column of
+    small multiples per case, so that each panel holds a few runs."""
+    cases = list(dict.fromkeys(r["case"] for r in runs))
+    fig, axes = plt.subplots(2, len(cases), figsize=(3.2 * len(cases) + 1, 5.5), squeeze=False)
+    for col, case in enumerate(cases):
+        ax_mu, ax_h = axes[0, col], axes[1, col]
+        for r in (r for r in runs if r["case"] == case):
+            files = sorted((r["_dir"] / "series").glob("shear_*.txt")) + sorted((r["_dir"] / "series").glob("production_*.txt"))
+            data = pd.concat([read_wall_series(s) for s in files], ignore_index=True).sort_values("time")
+            area = r["cell"][0] * r["cell"][1]
+            (line,) = ax_mu.plot(data["time"], -data["ftop_x"] / area / r["wall_pressure"], lw=0.7, label=r["run"])
+            ax_h.plot(data["time"], (data["h_top"] - data["h_top"].iloc[-1]) / r["d"], lw=0.7, color=line.get_color())
+            t0, t1 = r["steady_state_window"]
+            ax_mu.axvspan(t0, t1, color=line.get_color(), alpha=0.08)
+        ax_mu.set_title(case, fontsize=8)
+        ax_h.set_xlabel("time t (s)", fontsize=8)
+        if len(ax_mu.get_lines()) <= 8:
+            ax_mu.legend(fontsize=5)
+    axes[0, 0].set_ylabel("wall shear stress / wall pressure (-)", fontsize=8)
+    axes[1, 0].set_ylabel("top-wall height - final, in d (-)", fontsize=8)
+    for ax in axes.ravel():
+        ax.tick_params(labelsize=6)
+    fig.tight_layout()
+    return figures.add("wall_series", fig, "Top-wall shear stress over the imposed normal stress, and wall height, "
+                       "one column per case; shaded: steady window detected from the data.")
 
 
 def fields_checks_table(root: Path, config: dict[str, Any]) -> pd.DataFrame:

@@ -17,6 +17,7 @@ import xarray as xr
 
 from pipeline.coarse_graining import field_checks
 from pipeline.coarse_graining import fields
+from pipeline.coarse_graining.vtk import write_fields_vtk
 from pipeline.dumps.reader import CONTACT_COLUMNS
 
 CONTRACT = ("nu", "rho", "u_x", "u_z", "shear_rate", "sigma_xx", "sigma_yy", "sigma_zz", "sigma_xz",
@@ -134,12 +135,20 @@ def test_plane_fields_and_vtk(tmp_path):
     inner = slice(0.004, 0.014)
     for name in ("sigma_xz", "sigma_zz", "nu"):
         np.testing.assert_allclose(ds[name].sel(z=inner).mean("x"), profile.dataset[name].sel(z=inner), rtol=1e-3)
-    path = fields.write_vtk(ds, tmp_path / "f.vts")
+    path = write_fields_vtk(ds, tmp_path / "f.vts")
     import pyvista as pv
 
     grid = pv.read(path)
     assert grid.dimensions == (ds.sizes["x"], 1, ds.sizes["z"])
     np.testing.assert_allclose(grid.point_data["nu"].reshape(ds.sizes["x"], ds.sizes["z"], order="F"), ds["nu"].values)
+    # ParaView arrays: velocity a 3-vector, stress a symmetric 3x3 tensor (row-major).
+    n = ds.sizes["x"] * ds.sizes["z"]
+    assert grid.point_data["velocity"].shape == (n, 3) and grid.point_data["stress"].shape == (n, 9)
+    tensor = grid.point_data["stress"].reshape(n, 3, 3)
+    np.testing.assert_allclose(tensor, np.transpose(tensor, (0, 2, 1)))
+    np.testing.assert_allclose(tensor[:, 0, 2].reshape(ds.sizes["x"], ds.sizes["z"], order="F"), ds["sigma_xz"].values)
+    np.testing.assert_allclose(grid.point_data["velocity"][:, 0].reshape(ds.sizes["x"], ds.sizes["z"], order="F"),
+                               ds["u_x"].values)
 
 
 # ---- real DEM output ---------------------------------------------------------------------------
@@ -246,4 +255,31 @@ def test_fields_files_are_cf_and_cf_xarray_finds_axes_and_errors(reduced_results
     for key, value in ds.attrs.items():
         if not isinstance(value, str) and not key.endswith("_units"):
             assert f"{key}_units" in ds.attrs, key
+    ds.close()
+
+
+
+@pytest.mark.workflow
+def test_paraview_collection_and_particles_of_a_real_run(reduced_results: Path, tmp_path: Path) -> None:
+    import pyvista as pv
+
+    pvd = reduced_results / "paraview" / "shear_gravity.pvd"
+    text = pvd.read_text()
+    files = sorted((reduced_results / "paraview" / "shear_gravity").glob("*.vtp"))
+    assert {f.stem for f in files} == {"r1", "r2"} and all(f"shear_gravity/{f.name}" in text for f in files)
+    line = pv.read(files[0])
+    ds = xr.open_dataset(reduced_results / "fields" / "shear_gravity" / "r1.nc")
+    np.testing.assert_allclose(line.point_data["velocity"][:, 0], ds["u_x"].values)
+    np.testing.assert_allclose(line.point_data["stress"][:, 8], ds["sigma_zz"].values)
+    # the grains of the averaged snapshots, on request
+    out = tmp_path / "grains"
+    code = fields.main(["--config", str(reduced_results / "config.effective.json"), "--run-dir",
+                        str(reduced_results / "dem" / "shear_gravity" / "r1"), "--out", str(tmp_path / "r1.nc"),
+                        "--particles-vtk", str(out)])
+    assert code == 0
+    clouds = sorted(out.glob("particles_*.vtu"))
+    assert len(clouds) == int(ds.attrs["number_of_snapshots"])
+    cloud = pv.read(clouds[0])
+    assert cloud.point_data["velocity"].shape[1] == 3 and {"radius", "type"} <= set(cloud.point_data.keys())
+    assert "particles_" in (out / "particles.pvd").read_text()
     ds.close()
