@@ -20,8 +20,9 @@ if not workflow.overwrite_configfiles:
     configfile: "config/config.yaml"
 
 
+# A bad config stops here with one message naming the file and key, without stack frames.
+targets.checked(config, workflow.configfiles)
 validate(config, "config/schema.yaml")
-targets.checked(config)
 
 ROOT = config["output_root"]
 # Conda paths resolve against the file holding the rule, and every rule is in rules/.

@@ -6,8 +6,15 @@ set -euo pipefail
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$repo"
 
+# --tests: also what only the tests use (headless Chromium reads the report as a person would).
+for_tests=0
+[ "${1:-}" = "--tests" ] && for_tests=1
+
 need_apt=()
 command -v liggghts >/dev/null 2>&1 || need_apt+=(liggghts)
+if [ "$for_tests" = 1 ]; then
+  command -v chromium >/dev/null 2>&1 || need_apt+=(chromium)
+fi
 command -v mpirun >/dev/null 2>&1 || need_apt+=(openmpi-bin)
 command -v python3 >/dev/null 2>&1 || need_apt+=(python3)
 # A C compiler builds the fast dump parser (pipeline/dumps/fastparse.py) on first use.

@@ -3,6 +3,6 @@
 # with the real LIGGGHTS binary). Extra arguments go to pytest.
 set -euo pipefail
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-bash "$repo/scripts/install.sh"
+bash "$repo/scripts/install.sh" --tests
 cd "$repo"
 exec .venv/bin/python -m pytest "$@"

@@ -44,6 +44,7 @@ import xarray as xr
 
 from pipeline.dumps.reader import Dump, DumpError, read_contacts, read_particles
 from pipeline.common import atomic
+from pipeline.common.cli import nonnegative_float, positive_float, positive_int
 from pipeline.coarse_graining.kernels import KERNELS, Kernel, segment_2d
 from pipeline.coarse_graining.vtk import write_fields_vtk
 
@@ -745,24 +746,24 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--contact-columns", default=None,
                         help="physical names of c_ID[1], c_ID[2], ... separated by spaces or commas")
     parser.add_argument("--out", type=Path, required=True, help="output NetCDF file")
-    parser.add_argument("--width", type=float, default=None, help="kernel width w in m (default: half the mean diameter)")
+    parser.add_argument("--width", type=positive_float, default=None, help="kernel width w in m (default: half the mean diameter)")
     parser.add_argument("--kernel", choices=KERNELS, default="gaussian", help="gaussian (cut at 3 w) or lucy")
     bins = parser.add_mutually_exclusive_group()
-    bins.add_argument("--bins", type=int, default=None, help="number of z points")
-    bins.add_argument("--dx", type=float, default=None, help="grid spacing in m (default w / 2)")
+    bins.add_argument("--bins", type=positive_int, default=None, help="number of z points")
+    bins.add_argument("--dx", type=positive_float, default=None, help="grid spacing in m (default w / 2)")
     geom = parser.add_mutually_exclusive_group()
     geom.add_argument("--axis", choices=("z",), default="z", help="profile along z (x and y integrated)")
     geom.add_argument("--plane", choices=("xz",), default=None, help="2D field in x-z (y integrated)")
-    parser.add_argument("--t-start", type=float, default=None, help="first time to average from (s; needs --time-step)")
-    parser.add_argument("--time-step", type=float, default=None, help="DEM time step in s (timestep -> time)")
-    parser.add_argument("--blocks", type=int, default=5, help="blocks for the standard errors (default 5)")
+    parser.add_argument("--t-start", type=nonnegative_float, default=None, help="first time to average from (s; needs --time-step)")
+    parser.add_argument("--time-step", type=positive_float, default=None, help="DEM time step in s (timestep -> time)")
+    parser.add_argument("--blocks", type=positive_int, default=5, help="blocks for the standard errors (default 5)")
     parser.add_argument("--body-types", default="all",
                         help="particle types gravity acts on, for rho_body (comma list, or 'all')")
-    parser.add_argument("--rho-s", type=float, default=None,
+    parser.add_argument("--rho-s", type=positive_float, default=None,
                         help="grain density in kg m-3 (default: from mass and radius; needed when the dump has no mass)")
-    parser.add_argument("--diameter", type=float, default=None,
+    parser.add_argument("--diameter", type=positive_float, default=None,
                         help="grain diameter in m, for a dump without a radius or diameter column (monodisperse)")
-    parser.add_argument("--d", type=float, default=None, help="particle diameter for I (default: mean diameter)")
+    parser.add_argument("--d", type=positive_float, default=None, help="particle diameter for I (default: mean diameter)")
     return parser
 
 
@@ -779,12 +780,18 @@ def main(argv: list[str] | None = None) -> int:
             if args.time_step is None:
                 raise CoarseGrainError("--t-start needs --time-step (dumps carry timesteps, not times)")
             chosen = np.nonzero(particles.timesteps * args.time_step >= args.t_start)[0]
+            if chosen.size == 0:
+                times = particles.timesteps * args.time_step
+                raise CoarseGrainError(f"--t-start {args.t_start:g} s is after the last snapshot: the dumps span "
+                                       f"{times.min():.6g} to {times.max():.6g} s (with --time-step {args.time_step:g})")
+        if contacts is not None:
+            check_contacts_match(particles, contacts, chosen)
         radius = particles.column("radius")
-        d = args.d or float(2.0 * radius.mean())
-        width = args.width or 0.5 * d
+        d = args.d if args.d is not None else float(2.0 * radius.mean())
+        width = args.width if args.width is not None else 0.5 * d
         kernel = Kernel(args.kernel, width)
         z = particles.column("z")
-        dx = args.dx or width / 2.0
+        dx = args.dx if args.dx is not None else width / 2.0
         if args.plane:
             box = particles.boxes[0]
             grid = plane_grid(float(box[0, 0]), float(box[0, 1] - box[0, 0]), float(z.min()), float(z.max()), dx,

@@ -6,9 +6,13 @@ stage's user errors into one ``error:`` line and exit status 1 (a bug still show
 """
 from __future__ import annotations
 
+import argparse
 import importlib
+import math
+import os
 import sys
 from collections.abc import Mapping, Sequence
+from pathlib import Path
 
 
 def dispatch(stage: str, commands: Mapping[str, tuple[str, str]], argv: Sequence[str] | None = None,
@@ -39,8 +43,57 @@ def dispatch(stage: str, commands: Mapping[str, tuple[str, str]], argv: Sequence
         return 2 if known or not args else 0
     module = importlib.import_module(commands[name][0])
     sys.argv[0] = prog if name == default else f"{prog} {name}"
+    problem = output_problem(rest)
+    if problem:
+        print(f"{sys.argv[0]}: error: {problem}", file=sys.stderr)
+        return 2
     try:
         return int(module.main(rest) or 0)
     except user_errors as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 1
+
+
+def output_problem(args: Sequence[str]) -> str | None:
+    """Why the ``--out`` of a command line cannot be written, checked before any work is done:
+    it is a folder, or its parent is a file, or its parent cannot be made. None when it can."""
+    for k, arg in enumerate(args):
+        value = args[k + 1] if arg == "--out" and k + 1 < len(args) else (arg[6:] if arg.startswith("--out=") else None)
+        if value is None:
+            continue
+        path = Path(value)
+        if path.is_dir():
+            return f"--out {value}: is a folder; give a file name"
+        parent = path.parent
+        while not parent.exists() and parent != parent.parent:
+            parent = parent.parent
+        if parent.exists() and not parent.is_dir():
+            return f"--out {value}: {parent} is a file, not a folder"
+        if parent.exists() and not os.access(parent, os.W_OK):
+            return f"--out {value}: cannot write in {parent}"
+    return None
+
+
+def _number(kind: type, text: str, check, expected: str) -> float | int:
+    try:
+        value = kind(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a{'n integer' if kind is int else ' number'}") from None
+    if not (math.isfinite(value) and check(value)):
+        raise argparse.ArgumentTypeError(f"{text!r}: expected {expected}")
+    return value
+
+
+def positive_float(text: str) -> float:
+    """argparse type: a finite number > 0 (0, negative, nan and inf are refused, never replaced)."""
+    return _number(float, text, lambda v: v > 0, "a finite number above 0")
+
+
+def nonnegative_float(text: str) -> float:
+    """argparse type: a finite number >= 0."""
+    return _number(float, text, lambda v: v >= 0, "a finite number of 0 or more")
+
+
+def positive_int(text: str) -> int:
+    """argparse type: an integer >= 1."""
+    return _number(int, text, lambda v: v >= 1, "an integer of 1 or more")

@@ -29,6 +29,10 @@ def _key_path(error: jsonschema.ValidationError) -> str:
 
 def validate_config(config: dict[str, Any], source: str = "<config>") -> dict[str, Any]:
     """Check ``config`` against the schema; raise :class:`ConfigError` naming the first bad key."""
+    bad = list(_non_finite(config))
+    if bad:
+        raise ConfigError("invalid configuration:\n  " + "\n  ".join(f"{source}: {key}: {value} is not a finite number"
+                                                                      for key, value in bad[:10]))
     schema = yaml.safe_load(SCHEMA_PATH.read_text())
     validator = jsonschema.Draft202012Validator(schema)
     errors = sorted(validator.iter_errors(config), key=lambda e: (len(list(e.absolute_path)), str(e.absolute_path)))
@@ -37,6 +41,18 @@ def validate_config(config: dict[str, Any], source: str = "<config>") -> dict[st
         raise ConfigError("invalid configuration:\n  " + "\n  ".join(lines))
     _check_consistency(config, source)
     return config
+
+
+def _non_finite(value: Any, key: str = ""):
+    """(key path, value) of every NaN or infinite number in a config (the schema's bounds let them pass)."""
+    if isinstance(value, dict):
+        for k, v in value.items():
+            yield from _non_finite(v, f"{key}.{k}" if key else str(k))
+    elif isinstance(value, list):
+        for k, v in enumerate(value):
+            yield from _non_finite(v, f"{key}.{k}")
+    elif isinstance(value, float) and not math.isfinite(value):
+        yield key, value
 
 
 def _check_consistency(config: dict[str, Any], source: str) -> None:

@@ -5,7 +5,7 @@ import argparse
 from pathlib import Path
 
 from pipeline.common import atomic
-from pipeline.common.config import load_config
+from pipeline.common.config import dem_runs, load_config, size_study_cell
 from pipeline.dem.intruder_run import IntruderRun, YieldProbe
 from pipeline.dem.planar_run import PlanarShearRun
 
@@ -30,6 +30,11 @@ def main(argv: list[str] | None = None) -> int:
         config["dem"]["mpi_launcher"] = args.mpi_launcher
     if args.case not in config["cases"]:
         parser.error(f"case {args.case!r} is not in {args.config} (cases: {', '.join(config['cases'])})")
+    runs = [r for c, r in dem_runs(config) if c == args.case]
+    # Size-study runs (L<cell>-r<k>) belong to their case's study, which a run's own config omits.
+    if args.run not in runs and size_study_cell(args.run) is None:
+        parser.error(f"--run {args.run!r} is not a run of case {args.case!r} in {args.config} "
+                     f"(its runs: {', '.join(runs[:12])}{' ...' if len(runs) > 12 else ''})")
     out = Path(args.out) if args.out else Path(config["output_root"]) / "dem" / args.case / args.run
     intruder = config["cases"][args.case]["geometry"] == "intruder"
     if args.probe_yield:

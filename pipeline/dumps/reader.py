@@ -201,6 +201,13 @@ def _scan(raw: bytes | mmap.mmap, path: Path) -> tuple[str, tuple[str, ...], tup
                     raise ValueError
             except ValueError:
                 raise cur.fail(f"expected 'lo hi' box bounds, found {text[:60]!r}", cur.line - 1) from None
+            if not (np.all(np.isfinite(box[axis])) and box[axis, 1] > box[axis, 0]):
+                raise cur.fail(f"box bounds {text.strip()!r} of step {step}: the box has no extent along "
+                               f"{'xyz'[axis]}", cur.line - 1)
+        if blocks and step <= blocks[-1].timestep:
+            # A restarted run that appended to its dump repeats steps: which copy is right is unknown.
+            raise cur.fail(f"step {step} follows step {blocks[-1].timestep}: timesteps must increase within a "
+                           "file (a restarted run appended to it?)", cur.line - 5)
         header = cur.expect(f"ITEM: {'ATOMS' if this_kind == 'atoms' else 'ENTRIES'}").split()
         if not header:
             raise cur.fail("no column names in the header", cur.line - 1)
@@ -380,7 +387,34 @@ def particle_view(dump: Dump, rho_s: float | None = None, diameter: float | None
     out = _rename(Dump(dump.kind, tuple(columns), dump.timesteps, dump.boxes, dump.boundary, dump.offsets, data,
                        dump.sources), tuple(names))
     _require(out, PARTICLE_REQUIRED, "a particle dump needs x y z vx vy vz radius mass")
+    check_particle_rows(out)
     return out
+
+
+def check_particle_rows(dump: Dump) -> None:
+    """Refuse a snapshot with a repeated grain id (a duplicated row would be averaged in twice) or
+    a grain outside the box along a periodic axis (the fields would be stretched or lose mass)."""
+    source = ", ".join(dump.sources)
+    periodic = [axis for axis, flag in enumerate(dump.boundary[:3]) if flag.startswith("pp")]
+    cols = [dump.index(a) for a in "xyz"]
+    ids = dump.columns.index("id") if "id" in dump.columns else None
+    for s in range(len(dump)):
+        rows = dump.rows(s)
+        if ids is not None:
+            unique, counts = np.unique(rows[:, ids], return_counts=True)
+            if np.any(counts > 1):
+                raise DumpError(f"{source}: step {int(dump.timesteps[s])}: grain id {int(unique[counts > 1][0])} "
+                                "appears twice in one snapshot")
+        for axis in periodic:
+            lo, hi = dump.boxes[s, axis]
+            value = rows[:, cols[axis]]
+            # LAMMPS wraps periodic coordinates into the box between reneighbourings: a grain may sit
+            # up to a skin distance outside; more than a tenth of the box is not a wrap.
+            slack = 0.1 * (hi - lo)
+            if value.size and (value.min() < lo - slack or value.max() > hi + slack):
+                raise DumpError(f"{source}: step {int(dump.timesteps[s])}: a grain at {'xyz'[axis]} = "
+                                f"{value.min() if value.min() < lo - slack else value.max():.6g} lies outside the "
+                                f"periodic box [{lo:.6g}, {hi:.6g}]")
 
 
 def contact_view(dump: Dump, names: Sequence[str] | Mapping[str, str] | None = None) -> Dump:

@@ -92,7 +92,8 @@ def _case_table(frame: pd.DataFrame) -> str:
         styles.append(row_style)
     noise_row = pd.DataFrame([["DEM noise (replica vs replica)"] + [noise.get(m, float("nan")) for m in cols]],
                              columns=["model"] + cols)
-    return table_html(pd.concat([table, noise_row], ignore_index=True), cell_style=styles + [[""] * (len(cols) + 1)])
+    return table_html(pd.concat([table, noise_row], ignore_index=True), cell_style=styles + [[""] * (len(cols) + 1)],
+                      css_class="scores")
 
 
 def ranking_table(scores: pd.DataFrame) -> pd.DataFrame:
@@ -124,7 +125,7 @@ def score_section(root: Path, figures: Figures, nonlocal_where: str) -> str:
     if held.empty:
         parts.append("<p><b>No held-out case in this config</b>: every score below is calibration quality.</p>")
     else:
-        parts.append("<h3>Best model per case and metric</h3>" + table_html(ranking_table(held)))
+        parts.append("<h3>Best model per case and metric</h3>" + table_html(ranking_table(held), css_class="scores"))
         for case, frame in held.groupby("case"):
             parts.append(f"<h3>{html.escape(case)} (held out)</h3>" + _case_table(frame))
     parts.append("<h2>Fit quality on the calibration cases</h2><p class='note'>These cases' runs fed the "

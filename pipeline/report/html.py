@@ -53,8 +53,9 @@ def figure_html(fig: plt.Figure, caption: str, vector: bool = False) -> str:
     )
 
 
-def table_html(frame: pd.DataFrame, float_format: str = "{:.4g}", cell_style: Sequence[Sequence[str]] | None = None) -> str:
-    """An HTML table of a data frame; optional per-cell inline styles (same shape as the frame)."""
+def table_html(frame: pd.DataFrame, float_format: str = "{:.4g}", cell_style: Sequence[Sequence[str]] | None = None,
+               css_class: str = "") -> str:
+    """An HTML table of a data frame; optional per-cell inline styles (same shape as the frame) and class."""
     head = "".join(f'<th class="text">{html.escape(str(c))}</th>' for c in frame.columns)
     rows = []
     for i, (_, row) in enumerate(frame.iterrows()):
@@ -66,7 +67,8 @@ def table_html(frame: pd.DataFrame, float_format: str = "{:.4g}", cell_style: Se
             else:
                 cells.append(f'<td class="text"{style}>{html.escape(str(value))}</td>')
         rows.append("<tr>" + "".join(cells) + "</tr>")
-    table = f"<div class='table'><table><tr>{head}</tr>{''.join(rows)}</table></div>"
+    klass = f" class='{css_class}'" if css_class else ""
+    table = f"<div class='table'><table{klass}><tr>{head}</tr>{''.join(rows)}</table></div>"
     if len(rows) > FOLD_ROWS:
         return f"<details><summary>table of {len(rows)} rows</summary>{table}</details>"
     return table

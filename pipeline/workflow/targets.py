@@ -4,18 +4,26 @@ The result paths themselves are :mod:`pipeline.common.layout`."""
 from __future__ import annotations
 
 import json
+import os
 import shlex
 import sys
 from pathlib import Path
 from typing import Any
 
-from pipeline.common.config import RHEOMETER, calibration_runs, dem_runs, run_config, validate_config
+from pipeline.common.config import RHEOMETER, ConfigError, calibration_runs, dem_runs, run_config, validate_config
 from pipeline.common.layout import fields_paths, root
 
 
-def checked(config: dict[str, Any], source: str = "workflow config") -> dict[str, Any]:
-    """The Snakemake config, validated (schema plus cross-key checks)."""
-    return validate_config(config, source)
+def checked(config: dict[str, Any], configfiles: Any = ()) -> dict[str, Any]:
+    """The Snakemake config, validated (schema plus cross-key checks). A user error ends the
+    workflow here with the message alone (naming the config file and key), exit status 1:
+    Snakemake would wrap it in its own stack frames."""
+    source = ", ".join(str(f) for f in configfiles) or "workflow config"
+    try:
+        return validate_config(config, source)
+    except ConfigError as exc:
+        print(f"error: {exc}", file=sys.stderr, flush=True)
+        os._exit(1)  # not SystemExit: Snakemake reports that with a traceback too
 
 
 def _convergence_runs(config: dict[str, Any], case: str) -> list[str]:

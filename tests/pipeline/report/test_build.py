@@ -49,3 +49,12 @@ def test_snakemake_report_archive_holds_the_captioned_figures(reduced_results: P
     for figure in ("decay_length.png", "profiles.png", "calibration.png", "pareto.png"):
         assert any(n.endswith(figure) for n in names), (figure, names[:20])
     assert any(n.endswith("scores.csv") for n in names)
+
+
+def test_report_in_a_browser_fits_the_page_and_shows_every_score(reduced_results: Path) -> None:
+    from tests.pipeline.report.browser import check_report
+
+    seen = check_report(reduced_results / "report.html", width=1400)
+    assert seen["width"] >= 1300  # the window Chromium was asked for
+    assert seen["overflow"] <= 0, seen  # nothing wider than the page
+    assert seen["cells"] > 50 and seen["empty"] == 0, seen
