@@ -16,12 +16,14 @@ from pathlib import Path
 
 
 def dispatch(stage: str, commands: Mapping[str, tuple[str, str]], argv: Sequence[str] | None = None,
-             default: str | None = None, user_errors: tuple[type[BaseException], ...] = ()) -> int:
+             default: str | None = None, user_errors: tuple[type[BaseException], ...] = (),
+             out_is_folder: bool = False) -> int:
     """Run one command of ``python -m pipeline.<stage>``.
 
     ``commands`` maps a command name to ``(module, one-line help)``; the module's ``main(argv)``
     runs it. With ``default``, arguments that do not start with a command name go to that
-    command (so a stage with one main use needs no sub-command).
+    command (so a stage with one main use needs no sub-command). ``--out`` is checked before the
+    command runs (:func:`output_problem`); ``out_is_folder`` where it names a folder (a DEM run's).
     """
     args = list(sys.argv[1:] if argv is None else argv)
     prog = f"python -m pipeline.{stage}"
@@ -43,7 +45,7 @@ def dispatch(stage: str, commands: Mapping[str, tuple[str, str]], argv: Sequence
         return 2 if known or not args else 0
     module = importlib.import_module(commands[name][0])
     sys.argv[0] = prog if name == default else f"{prog} {name}"
-    problem = output_problem(rest)
+    problem = output_problem(rest, out_is_folder)
     if problem:
         print(f"{sys.argv[0]}: error: {problem}", file=sys.stderr)
         return 2
@@ -54,16 +56,19 @@ def dispatch(stage: str, commands: Mapping[str, tuple[str, str]], argv: Sequence
         return 1
 
 
-def output_problem(args: Sequence[str]) -> str | None:
-    """Why the ``--out`` of a command line cannot be written, checked before any work is done:
-    it is a folder, or its parent is a file, or its parent cannot be made. None when it can."""
+def output_problem(args: Sequence[str], out_is_folder: bool = False) -> str | None:
+    """Why the ``--out`` of a command line cannot be written, checked before any work is done: a
+    file output that is a folder (or a folder output that is a file), a parent that is a file, or
+    one that cannot be written in. None when it can."""
     for k, arg in enumerate(args):
         value = args[k + 1] if arg == "--out" and k + 1 < len(args) else (arg[6:] if arg.startswith("--out=") else None)
         if value is None:
             continue
         path = Path(value)
-        if path.is_dir():
+        if path.is_dir() and not out_is_folder:
             return f"--out {value}: is a folder; give a file name"
+        if out_is_folder and path.exists() and not path.is_dir():
+            return f"--out {value}: is a file; give the run folder"
         parent = path.parent
         while not parent.exists() and parent != parent.parent:
             parent = parent.parent

@@ -4,4 +4,5 @@ from pipeline.common.config import ConfigError
 from pipeline.dem.liggghts_log import DEMRunError
 
 raise SystemExit(dispatch("dem", {"run": ("pipeline.dem.cli", "one LIGGGHTS run of a case (the default)")},
-                          default="run", user_errors=(DEMRunError, ConfigError)))
+                          default="run", user_errors=(DEMRunError, ConfigError),
+                          out_is_folder=True))

@@ -83,7 +83,9 @@ def _case_table(frame: pd.DataFrame) -> str:
         row_style = [""]
         for m in cols:
             v, n = row[m], noise.get(m, float("nan"))
-            if not np.isfinite(v) or (np.isfinite(n) and n > 0 and v > 10 * n):
+            if np.isnan(v):
+                row_style.append("")  # the model does not predict this quantity: nothing to colour
+            elif np.isinf(v) or (np.isfinite(n) and n > 0 and v > 10 * n):
                 row_style.append("background:#f6c6c6")
             elif np.isfinite(n) and v <= 2 * n:
                 row_style.append("background:#c8eec8")
@@ -92,8 +94,11 @@ def _case_table(frame: pd.DataFrame) -> str:
         styles.append(row_style)
     noise_row = pd.DataFrame([["DEM noise (replica vs replica)"] + [noise.get(m, float("nan")) for m in cols]],
                              columns=["model"] + cols)
-    return table_html(pd.concat([table, noise_row], ignore_index=True), cell_style=styles + [[""] * (len(cols) + 1)],
-                      css_class="scores")
+    shown = pd.concat([table, noise_row], ignore_index=True).astype(object)
+    # An empty cell reads as a bug: say why there is no number (no replica pair, or no prediction).
+    shown.iloc[:-1, 1:] = shown.iloc[:-1, 1:].where(pd.notna(shown.iloc[:-1, 1:]), "not predicted")
+    shown.iloc[-1:, 1:] = shown.iloc[-1:, 1:].where(pd.notna(shown.iloc[-1:, 1:]), "n/a: one replica")
+    return table_html(shown, cell_style=styles + [[""] * (len(cols) + 1)], css_class="scores")
 
 
 def ranking_table(scores: pd.DataFrame) -> pd.DataFrame:
@@ -107,10 +112,11 @@ def ranking_table(scores: pd.DataFrame) -> pd.DataFrame:
         noise = float(frame.dem_noise.iloc[0])
         rows.append({"case": case, "metric": metric, "best model": best.model, "value": float(best.value),
                      "DEM noise": noise, "value / noise": float(best.value / noise) if noise > 0 else float("nan"),
-                     "runner-up": finite.iloc[1].model if len(finite) > 1 else "",
-                     "runner-up value": float(finite.iloc[1].value) if len(finite) > 1 else float("nan"),
-                     "no prediction": ", ".join(sorted(set(frame.model) - set(finite.model)))})
-    return pd.DataFrame(rows)
+                     "runner-up": finite.iloc[1].model if len(finite) > 1 else "none",
+                     "runner-up value": float(finite.iloc[1].value) if len(finite) > 1 else "none",
+                     "no prediction": ", ".join(sorted(set(frame.model) - set(finite.model))) or "none"})
+    table = pd.DataFrame(rows).astype(object)
+    return table.where(pd.notna(table), "n/a: one replica")
 
 
 def score_section(root: Path, figures: Figures, nonlocal_where: str) -> str:
@@ -554,7 +560,8 @@ def fields_checks_table(root: Path, config: dict[str, Any]) -> pd.DataFrame:
         ds = open_fields(root / "fields" / case / f"{run}.nc")
         row = {"case": case, "run": run, "snapshots": int(ds.attrs.get("number_of_snapshots", -1))}
         for key, value in ds.attrs.items():
-            if key.startswith("check_") and any(s in key for s in ("balance_", "wall_series_")) and np.isscalar(value):
+            if (key.startswith("check_") and any(s in key for s in ("balance_", "wall_series_")) and np.isscalar(value)
+                    and not key.endswith("_units")):
                 row[key[6:]] = float(value)
         rows.append(row)
         ds.close()
