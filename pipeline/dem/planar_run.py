@@ -454,6 +454,10 @@ class PlanarShearRun:
             if len(shear) >= window:
                 test = self._steady_test(shear[-window:])
                 self.state["last_steady_test"] = test
+                print(f"{self.label}: steady-state test over shear chunks {len(shear) - window + 1}-{len(shear)}: "
+                      f"force drift {abs(test['force']['drift']) / test['force']['allowed']:.2f}, height drift "
+                      f"{abs(test['height']['drift']) / test['height']['allowed']:.2f} of allowed: "
+                      f"{'steady' if test['stationary'] else 'not yet steady'}", flush=True)
                 if test["stationary"]:
                     self.state["steady"] = test
                     self._save_state()
@@ -484,10 +488,7 @@ class PlanarShearRun:
         strain = self.dem["chunk_strain"]
         rate = chunk["steps"] * self.case["n_grains"] / max(chunk["wall_seconds"], 1e-9)
         if chunk["kind"] == "shear":
-            test = self.state.get("last_steady_test")
-            margin = (f"steady test: force drift {abs(test['force']['drift']) / test['force']['allowed']:.2f}, "
-                      f"height drift {abs(test['height']['drift']) / test['height']['allowed']:.2f} of allowed"
-                      if test else f"steady test from chunk {window}")
+            margin = f"steady-state test from chunk {window} on"
             left = max(window - len(shear), 0) + plan["production_chunks"]
             where = f"shear {len(shear)} (strain {len(shear) * strain:g}, at most {self.dem['max_shear_chunks'] * strain:g})"
             bound = "at least "
