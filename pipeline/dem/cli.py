@@ -5,6 +5,7 @@ import argparse
 from pathlib import Path
 
 from pipeline.common import atomic
+from pipeline.common.cli import positive_int
 from pipeline.common.config import dem_runs, load_config, size_study_cell
 from pipeline.dem.intruder_run import IntruderRun, YieldProbe
 from pipeline.dem.planar_run import PlanarShearRun
@@ -18,7 +19,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--case", required=True, help="case name in the config (rheometer, shear_gravity, intruder)")
     parser.add_argument("--run", required=True, help="run id (e.g. I0.02-r1, r2, D5-r1, D5-control-r1)")
     parser.add_argument("--out", help="run folder (default: <output_root>/dem/<case>/<run>)")
-    parser.add_argument("--mpi-ranks", type=int, help="override dem.mpi_ranks")
+    parser.add_argument("--mpi-ranks", type=positive_int, help="override dem.mpi_ranks")
     parser.add_argument("--mpi-launcher", help="override dem.mpi_launcher ('none' runs the binary directly)")
     parser.add_argument("--probe-yield", action="store_true",
                         help="intruder cases: measure the rod's yield force (staircase, wall at rest)")

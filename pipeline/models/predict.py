@@ -30,6 +30,7 @@ import continuum
 from continuum.geometry import PlanarShear
 from pipeline.calibration.calibrate import model_parameters, normal_stress_ratio
 from pipeline.common import atomic
+from pipeline.common.cli import positive_float
 from pipeline.common.config import RHEOMETER, load_config, mean_grain_volume
 
 MODELS = ("local_mu_i", "critical_state", "cosserat", "ngf", "volume_averaged")
@@ -80,7 +81,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--config", required=True, help="config holding the candidate cases")
     parser.add_argument("--params", required=True, type=Path, help="calibration/params.json")
     parser.add_argument("--cases", nargs="*", help="cases to predict (default: every planar case with gravity)")
-    parser.add_argument("--depths", nargs="*", type=float, default=[3.0, 6.0, 9.0, 12.0, 15.0],
+    parser.add_argument("--depths", nargs="*", type=positive_float, default=[3.0, 6.0, 9.0, 12.0, 15.0],
                         help="depths below the top wall plane, in d")
     parser.add_argument("--out", type=Path, help="write the table as CSV too")
     args = parser.parse_args(argv)

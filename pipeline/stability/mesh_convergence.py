@@ -34,6 +34,7 @@ import xarray as xr
 import continuum
 from continuum.geometry import PlanarShear
 from continuum.mesh_study import N_GRIDS, mesh_study, weak_plane_packing
+from pipeline.common.cli import positive_int
 from pipeline.calibration.calibrate import CalibrationError, model_parameters
 from pipeline.models.planar import case_geometry
 
@@ -74,7 +75,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--params", required=True, type=Path, help="calibration/params.json")
     parser.add_argument("--fields", required=True, nargs="+", type=Path, help="fields of the shear_gravity replicas")
     parser.add_argument("--out", required=True, type=Path)
-    parser.add_argument("--n-grid", type=int, nargs="+", default=list(N_GRIDS), help="grid sizes (default 16..4096)")
+    parser.add_argument("--n-grid", type=positive_int, nargs="+", default=list(N_GRIDS), help="grid sizes (default 16..4096)")
     args = parser.parse_args(argv)
     params = json.loads(args.params.read_text())
     fields = [xr.open_dataset(f) for f in args.fields]
