@@ -42,7 +42,7 @@ import numpy as np
 import scipy.sparse as sp
 import xarray as xr
 
-from pipeline.dumps.reader import Dump, DumpError, read_contacts, read_particles
+from pipeline.dumps.reader import Dump, DumpError, check_particle_rows, read_contacts, read_particles
 from pipeline.common import atomic
 from pipeline.common.cli import nonnegative_float, positive_float, positive_int
 from pipeline.coarse_graining.kernels import KERNELS, Kernel, segment_2d
@@ -684,6 +684,7 @@ def coarse_grain(particles: Dump, contacts: Dump | None, kernel: Kernel, grid: G
     chosen = np.arange(len(particles)) if snapshots is None else np.asarray(snapshots, dtype=np.int64)
     if chosen.size == 0:
         raise CoarseGrainError("no snapshot in the averaging window")
+    check_particle_rows(particles, chosen)
     radius = particles.column("radius")
     if d is None:
         d = float(2.0 * radius.mean())

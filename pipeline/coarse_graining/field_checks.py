@@ -48,21 +48,29 @@ def momentum_balance(ds: xr.Dataset, gravity: float, z_lo: float, z_hi: float) -
     szz = ds.variables["sigma_zz"].values[bulk]
     rho = ds.variables["rho_body"].values[bulk]
     s = szz + gravity * _cumulative(rho, zb)
-    (slope, _), cov = np.polyfit(zb, szz, 1, cov="unscaled", w=1.0 / ds.variables["sigma_zz_err"].values[bulk])
-    slope = float(slope)
+    zz_errors = ds.variables["sigma_zz_err"].values[bulk]
     expected = float(-gravity * np.mean(rho))
     xz_err = float(np.mean(ds.variables["sigma_xz_err"].values[bulk]))
-    zz_err = float(np.mean(ds.variables["sigma_zz_err"].values[bulk]))
-    # The points share grains through the kernel (about width / spacing of them per independent
-    # value): the straight-line fit's error, which takes them as independent, is scaled by its root.
-    spacing = float(zb[1] - zb[0])
-    shared = max(float(ds.attrs.get("width", spacing)) / spacing, 1.0)
-    slope_err = float(math.sqrt(cov[0, 0] * shared))
+    zz_err = float(np.mean(zz_errors))
+    if np.all(zz_errors > 0):
+        (slope, _), cov = np.polyfit(zb, szz, 1, cov="unscaled", w=1.0 / zz_errors)
+        # The points share grains through the kernel (about width / spacing of them per independent
+        # value): the straight-line fit's error, which takes them as independent, is scaled by its root.
+        spacing = float(zb[1] - zb[0])
+        shared = max(float(ds.attrs.get("width", spacing)) / spacing, 1.0)
+        slope_err = float(math.sqrt(cov[0, 0] * shared))
+    else:  # no time fluctuation (a static bed): no error to weigh or compare with
+        slope, slope_err = float(np.polyfit(zb, szz, 1)[0]), float("nan")
+    slope = float(slope)
+
+    def over(value: float, error: float) -> float:
+        return value / error if error > 0 else float("nan")
+
     return {
-        "residual_xz_over_err": float(np.max(np.abs(sxz - sxz.mean())) / xz_err),
-        "residual_zz_over_err": float(np.max(np.abs(s - s.mean())) / zz_err),
+        "residual_xz_over_err": over(float(np.max(np.abs(sxz - sxz.mean()))), xz_err),
+        "residual_zz_over_err": over(float(np.max(np.abs(s - s.mean()))), zz_err),
         "slope_zz_err": slope_err,
-        "slope_zz_deviation_over_err": float((slope - expected) / slope_err),
+        "slope_zz_deviation_over_err": over(slope - expected, slope_err),
         "p_bulk": p,
         "residual_xz": float(np.max(np.abs(sxz - sxz.mean())) / p),
         "residual_zz": float(np.max(np.abs(s - s.mean())) / p),

@@ -49,10 +49,13 @@ def attribute_units(name: str) -> str | None:
     if name in ATTRIBUTE_UNITS:
         return ATTRIBUTE_UNITS[name]
     base = name[6:] if name.startswith("check_") else name
+    base = base[8:] if base.startswith("balance_") else base
     if base in ATTRIBUTE_UNITS:
         return ATTRIBUTE_UNITS[base]
-    if base.endswith(_DIMENSIONLESS_SUFFIXES) or "residual" in base:
-        return "1"
+    if base.endswith(_DIMENSIONLESS_SUFFIXES) or "residual" in base or base.startswith("identity_"):
+        return "1"  # identity_*: largest mismatch over |sigma_zz|
+    if "sigma_" in base or base.endswith("_over_area"):
+        return "Pa"
     if base.startswith(("z_", "bulk_z")) or base.endswith("_z") or base.endswith(("_z_lo", "_z_hi", "_check")):
         return "m"
     if base.startswith("slope_zz") and base.endswith("err") or base in ("slope_zz", "slope_zz_expected", "slope_xz"):

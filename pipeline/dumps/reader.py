@@ -201,9 +201,6 @@ def _scan(raw: bytes | mmap.mmap, path: Path) -> tuple[str, tuple[str, ...], tup
                     raise ValueError
             except ValueError:
                 raise cur.fail(f"expected 'lo hi' box bounds, found {text[:60]!r}", cur.line - 1) from None
-            if not (np.all(np.isfinite(box[axis])) and box[axis, 1] > box[axis, 0]):
-                raise cur.fail(f"box bounds {text.strip()!r} of step {step}: the box has no extent along "
-                               f"{'xyz'[axis]}", cur.line - 1)
         if blocks and step <= blocks[-1].timestep:
             # A restarted run that appended to its dump repeats steps: which copy is right is unknown.
             raise cur.fail(f"step {step} follows step {blocks[-1].timestep}: timesteps must increase within a "
@@ -369,52 +366,52 @@ def particle_view(dump: Dump, rho_s: float | None = None, diameter: float | None
         data[:, j] *= 0.5
         names[j] = "radius"
     columns = list(dump.columns)
-    if "radius" not in names:
-        if diameter is None:
-            raise DumpError(f"{dump.sources[0]}:9: no radius or diameter column: give the grain diameter "
-                            "(--diameter, m) for a monodisperse dump")
+    if "radius" not in names and diameter is not None:
         data = np.column_stack([data, np.full(data.shape[0], 0.5 * diameter)])
         names.append("radius")
         columns.append("radius")
-    if "mass" not in names:
-        if rho_s is None:
-            raise DumpError(f"{dump.sources[0]}:9: no mass column: give the grain density (--rho-s, kg m-3) "
-                            "and the mass follows from each grain's radius")
+    if "mass" not in names and rho_s is not None and "radius" in names:
         radius = data[:, names.index("radius")]
         data = np.column_stack([data, rho_s * 4.0 / 3.0 * np.pi * radius**3])
         names.append("mass")
         columns.append("mass")
     out = _rename(Dump(dump.kind, tuple(columns), dump.timesteps, dump.boxes, dump.boundary, dump.offsets, data,
                        dump.sources), tuple(names))
-    _require(out, PARTICLE_REQUIRED, "a particle dump needs x y z vx vy vz radius mass")
-    check_particle_rows(out)
+    _require(out, PARTICLE_REQUIRED, "a particle dump needs x y z vx vy vz radius mass (without mass: give "
+             "the grain density, --rho-s; without radius or diameter: the grain diameter, --diameter)")
     return out
 
 
-def check_particle_rows(dump: Dump) -> None:
-    """Refuse a snapshot with a repeated grain id (a duplicated row would be averaged in twice) or
-    a grain outside the box along a periodic axis (the fields would be stretched or lose mass)."""
+def check_particle_rows(dump: Dump, snapshots: Sequence[int] | None = None) -> None:
+    """Refuse what would corrupt fields without an error of its own: a box of no extent, a repeated
+    grain id in one snapshot (the row would be averaged in twice), a grain outside the box (the
+    fields would be stretched or lose mass). ``snapshots``: the ones to check (default all)."""
     source = ", ".join(dump.sources)
-    periodic = [axis for axis, flag in enumerate(dump.boundary[:3]) if flag.startswith("pp")]
     cols = [dump.index(a) for a in "xyz"]
     ids = dump.columns.index("id") if "id" in dump.columns else None
-    for s in range(len(dump)):
+    for s in range(len(dump)) if snapshots is None else snapshots:
         rows = dump.rows(s)
+        for axis in range(3):
+            lo, hi = dump.boxes[s, axis]
+            if not (np.isfinite(lo) and np.isfinite(hi) and hi > lo):
+                raise DumpError(f"{source}: step {int(dump.timesteps[s])}: box bounds {lo:g} {hi:g}: the box has no "
+                                f"extent along {'xyz'[axis]}")
         if ids is not None:
             unique, counts = np.unique(rows[:, ids], return_counts=True)
             if np.any(counts > 1):
                 raise DumpError(f"{source}: step {int(dump.timesteps[s])}: grain id {int(unique[counts > 1][0])} "
                                 "appears twice in one snapshot")
-        for axis in periodic:
+        for axis in range(3):
             lo, hi = dump.boxes[s, axis]
             value = rows[:, cols[axis]]
-            # LAMMPS wraps periodic coordinates into the box between reneighbourings: a grain may sit
-            # up to a skin distance outside; more than a tenth of the box is not a wrap.
+            # LAMMPS wraps periodic coordinates into the box only when it reneighbours, and a fixed
+            # boundary's box may lag the grains by as much: a grain may sit up to a skin distance
+            # outside; more than a tenth of the box is not that.
             slack = 0.1 * (hi - lo)
             if value.size and (value.min() < lo - slack or value.max() > hi + slack):
                 raise DumpError(f"{source}: step {int(dump.timesteps[s])}: a grain at {'xyz'[axis]} = "
                                 f"{value.min() if value.min() < lo - slack else value.max():.6g} lies outside the "
-                                f"periodic box [{lo:.6g}, {hi:.6g}]")
+                                f"box [{lo:.6g}, {hi:.6g}]")
 
 
 def contact_view(dump: Dump, names: Sequence[str] | Mapping[str, str] | None = None) -> Dump:

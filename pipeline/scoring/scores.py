@@ -119,12 +119,22 @@ DEM_VARIABLE = {"log_velocity_rmse": "u_creep", "decay_length_rel_err": "u_creep
                 "fluidity_micro_log_rmse": "fluidity_micro"}
 
 
+#: Variables compared in log: between two replicas only where both resolve them (a replica's
+#: unresolved, possibly negative, creep is not a prediction of zero).
+LOG_VARIABLES = ("u_creep", "fluidity", "fluidity_micro")
+
+
 def dem_noise(reps: list[xr.Dataset], variable: str, fn: Callable[..., float], mask: np.ndarray) -> float:
     """Mean of the metric between pairs of replicas (nan with a single replica)."""
     values = []
     for a, b in itertools.combinations(reps, 2):
+        err = b[f"{variable}_err"].values
+        if variable in LOG_VARIABLES:
+            # Where replica a does not resolve the value, b's point is left out (as unresolved).
+            resolved = a[variable].values > metrics.RESOLVED_SIGMAS * np.nan_to_num(a[f"{variable}_err"].values, nan=np.inf)
+            err = np.where(resolved, err, np.inf)
         try:
-            values.append(fn(a[variable].values[mask], b[variable].values[mask], b[f"{variable}_err"].values[mask]))
+            values.append(fn(a[variable].values[mask], b[variable].values[mask], err[mask]))
         except MetricError:
             continue
     finite = [v for v in values if math.isfinite(v)]

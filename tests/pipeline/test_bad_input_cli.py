@@ -159,7 +159,7 @@ def test_grain_far_outside_its_periodic_box_is_refused(tmp_path: Path, dump: Pat
         lines[k + 1] = " ".join(values)
         return "\n".join(lines) + "\n"
     proc = cli("pipeline.coarse_graining", str(edit(dump, tmp_path / "out.dump", move)), "--out", str(tmp_path / "f.nc"))
-    one_clear_line(proc, "lies outside the periodic box")
+    one_clear_line(proc, "lies outside the box")
 
 
 def test_file_that_is_not_gzip_though_it_starts_like_one_is_named(tmp_path: Path) -> None:
