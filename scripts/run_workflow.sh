@@ -8,4 +8,6 @@ bash "$repo/scripts/install.sh"
 cd "$repo"
 configfile="${1:-config/config.yaml}"
 shift || true
+# Snakemake does not name the file or line of a YAML error: check the config first.
+.venv/bin/python -m pipeline.workflow check-config "$configfile"
 exec .venv/bin/snakemake --cores "${CORES:-$(nproc)}" --configfile "$configfile" "$@"

@@ -125,9 +125,14 @@ def load_config(path: str | Path) -> dict[str, Any]:
     except FileNotFoundError:
         raise ConfigError(f"{path}: config file not found") from None
     except yaml.YAMLError as exc:
-        raise ConfigError(f"{path}: not valid YAML: {exc}") from None
+        mark = getattr(exc, "problem_mark", None)
+        where = f"{path}:{mark.line + 1}" if mark is not None else str(path)
+        problem = getattr(exc, "problem", None) or str(exc)
+        raise ConfigError(f"{where}: not valid YAML: {problem}") from None
+    if config is None:
+        raise ConfigError(f"{path}:1: the config file is empty")
     if not isinstance(config, dict):
-        raise ConfigError(f"{path}: top level must be a mapping of keys")
+        raise ConfigError(f"{path}:1: top level must be a mapping of keys, found {type(config).__name__}")
     return validate_config(config, str(path))
 
 

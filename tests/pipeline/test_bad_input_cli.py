@@ -220,3 +220,13 @@ def test_crlf_extra_columns_other_order_gzip_and_per_snapshot_files_give_the_sam
         for field in ("nu", "rho", "sigma_zz", "u_x"):
             np.testing.assert_allclose(got[field].values, reference[field].values, rtol=1e-12, atol=1e-12, err_msg=name)
         got.close()
+
+
+@pytest.mark.parametrize("text, words", [("seed: [1, 2\noutput_root: x\n", ":2: not valid YAML"),
+                                         ("", ":1: the config file is empty"),
+                                         ("- a\n- b\n", ":1: top level must be a mapping of keys, found list")])
+def test_yaml_errors_name_file_and_line_before_snakemake_reads_the_config(tmp_path: Path, text: str, words: str) -> None:
+    path = tmp_path / "c.yaml"
+    path.write_text(text)
+    proc = cli("pipeline.workflow", "check-config", str(path))
+    one_clear_line(proc, f"{path}{words}")
