@@ -60,7 +60,7 @@ def test_missing_and_malformed_files(tmp_path) -> None:
         load_config(tmp_path / "nope.yaml")
     broken = tmp_path / "broken.yaml"
     broken.write_text("seed: [1, 2\n")
-    with pytest.raises(ConfigError, match=r"broken.yaml:1: not valid YAML"):
+    with pytest.raises(ConfigError, match=r"broken.yaml:2: not valid YAML"):
         load_config(broken)
 
 
