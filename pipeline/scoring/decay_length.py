@@ -41,7 +41,7 @@ from pipeline.common import atomic
 from pipeline.common.observables import creep_speed
 from pipeline.common.config import load_config
 from pipeline.common.provenance import provenance
-from pipeline.scoring.scores import WALL_MARGIN_OVER_D
+from pipeline.scoring.scores import WALL_MARGIN_OVER_D, calibration_cases
 
 #: Creep: speeds below this fraction of the wall speed (the shear band above is not creep).
 CREEP_FRACTION = 0.1
@@ -203,7 +203,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     params = json.loads(args.params.read_text())
     mu_s, d = float(params["local"]["mu_s"]["value"]), float(params["d"])
-    calibrated = {label.split("/")[0] for label in params["calibration_runs"]}
+    calibrated = calibration_cases(params)
     dem = pd.concat([dem_rows(f, mu_s, "calibration" if f.parent.name in calibrated else "held_out") for f in args.fields],
                     ignore_index=True)
     models = pd.concat([model_rows(f, mu_s, d) for f in args.models] or [pd.DataFrame(columns=MODEL_COLUMNS)],
