@@ -80,6 +80,14 @@ def _check_consistency(config: dict[str, Any], source: str) -> None:
             f"{source}: dem.steady_window_chunks ({dem['steady_window_chunks']}) exceeds "
             f"dem.max_shear_chunks ({dem['max_shear_chunks']})"
         )
+    precision = dem.get("precision")
+    if precision is not None:
+        if ("log_speed" in precision) != ("log_speed_depth_over_d" in precision):
+            raise ConfigError(f"{source}: dem.precision: log_speed and log_speed_depth_over_d go together "
+                              "(the log-speed error is held down to that depth)")
+        if precision["min_production_strain"] > dem["production_strain"]:
+            raise ConfigError(f"{source}: dem.precision.min_production_strain ({precision['min_production_strain']}) "
+                              f"exceeds dem.production_strain ({dem['production_strain']}), the production's cap")
 
 
 def _check_calibration_set(config: dict[str, Any], source: str) -> None:

@@ -212,6 +212,38 @@ class IntruderRun(PlanarShearRun):
         data["x"] = unwrap(data["x"].to_numpy(), self.case["cell_x"] * self.mat["d"])
         return data[(data["time"] >= t_start) & (data["time"] <= t_end)].reset_index(drop=True)
 
+    def _steady_test(self, window_chunks: list[dict[str, Any]]) -> dict[str, Any]:
+        """The wall's steady-state test, and the rod's: its speeds over the two halves of the
+        window agree within ``dem.steady_rod_speed_tol`` of their mean plus twice their combined
+        error (the rod starts at rest and takes longer than the wall to settle into creep)."""
+        test = super()._steady_test(window_chunks)
+        tol = self.dem.get("steady_rod_speed_tol")
+        if tol is None:
+            return test
+        series = self.intruder_series(window_chunks[0]["t_start"], window_chunks[-1]["t_end"])
+        half = len(series) // 2
+        a, b = (creep_speed(part["time"].to_numpy(), part["x"].to_numpy(), self.mat["d"], n_blocks=4)
+                for part in (series.iloc[:half], series.iloc[half:]))
+        allowed = tol * abs(0.5 * (a.speed + b.speed)) + 2.0 * math.hypot(a.speed_err, b.speed_err)
+        rod = {"speed_first_half": a.speed, "speed_second_half": b.speed, "allowed": allowed,
+               "stationary": bool(abs(a.speed - b.speed) <= allowed)}
+        return test | {"rod": rod, "stationary": bool(test["stationary"] and rod["stationary"])}
+
+    def precision_targets(self, precision_cfg: dict[str, Any]) -> dict[str, float]:
+        """The intruder is scored on its rod's creep speed: its relative error is the target."""
+        return {k: float(precision_cfg[k]) for k in ("rod_speed_rel",) if k in precision_cfg}
+
+    def production_precision(self, produced: list[dict[str, Any]], precision_cfg: dict[str, Any]) -> dict[str, Any]:
+        """Relative error of the rod's speed over the production so far; an arrested rod (no
+        resolved motion) does not meet it."""
+        targets = self.precision_targets(precision_cfg)
+        series = self.intruder_series(produced[0]["t_start"], produced[-1]["t_end"])
+        creep = creep_speed(series["time"].to_numpy(), series["x"].to_numpy(), self.mat["d"])
+        relative = math.inf if creep.arrested else abs(creep.speed_err / creep.speed)
+        reached = {"rod_speed_rel": relative} if "rod_speed_rel" in targets else {}
+        met = {k: bool(v <= targets[k]) for k, v in reached.items()}
+        return {"blocks": SPEED_BLOCKS, "reached": reached, "met": met, "all_met": bool(met) and all(met.values())}
+
     def _record(self, plan: dict[str, int]) -> dict[str, Any]:
         record = super()._record(plan)
         d = self.mat["d"]

@@ -34,6 +34,7 @@ import numpy as np
 import pandas as pd
 
 from pipeline.dem import liggghts_render as render
+from pipeline.dem import precision
 from pipeline.common.config import derived_seed, liggghts_seed, mean_grain_volume, run_case, run_physics, run_state, size_classes
 from pipeline.dem.contact_scaling import ContactDesign, design_contacts
 from pipeline.common.formats import RUN_FORMAT_VERSION
@@ -129,6 +130,15 @@ def run_liggghts(launcher: Launcher, run_dir: Path, stage: str, label: str) -> f
     seconds = time.perf_counter() - start
     check_run(f"{label} stage {stage}", run_dir / log, proc.returncode, screen.read_text(errors="replace"))
     return seconds
+
+
+def settled_timestep(path: Path) -> int:
+    """The time step of ``settled.dump``'s snapshot: the steps the fill took."""
+    with path.open() as f:
+        for line in f:
+            if line.startswith("ITEM: TIMESTEP"):
+                return int(next(f).split()[0])
+    raise DEMRunError(f"{path}: no 'ITEM: TIMESTEP' line")
 
 
 def read_settled(path: Path) -> pd.DataFrame:
@@ -280,6 +290,7 @@ class PlanarShearRun:
             "z_bottom_wall": z_bottom,
             "z_top_wall": z_top,
             "settled_ke": ke,
+            "steps": settled_timestep(self.run_dir / "settled.dump"),
             "wall_mass": float(np.sum(rho * np.pi * top.diameter**3 / 6.0)),
         }
         self.state["wall_seconds"] += seconds
@@ -469,10 +480,72 @@ class PlanarShearRun:
                     f"last drift test: force {test.get('force')}, height {test.get('height')}"
                 )
             self._progress(self._run_chunk("shear", len(shear), plan), plan)
-        produced = [c for c in self.state["chunks"] if c["kind"] == "production"]
-        for index in range(len(produced), plan["production_chunks"]):
-            self._progress(self._run_chunk("production", index, plan), plan)
+        while True:
+            produced = [c for c in self.state["chunks"] if c["kind"] == "production"]
+            stop = self._production_stop(produced, plan)
+            if stop is not None:
+                self.state["production_stop"] = stop
+                self._save_state()
+                break
+            self._progress(self._run_chunk("production", len(produced), plan), plan)
         return self._record(plan)
+
+    def _min_production_chunks(self, plan: dict[str, int]) -> int:
+        precision_cfg = self.dem.get("precision")
+        if precision_cfg is None:
+            return plan["production_chunks"]
+        wanted = int(math.ceil(precision_cfg["min_production_strain"] / self.dem["chunk_strain"] - 1e-9))
+        return min(plan["production_chunks"], max(precision.MIN_BLOCKS, wanted))
+
+    def _production_stop(self, produced: list[dict[str, Any]], plan: dict[str, int]) -> dict[str, Any] | None:
+        """Why production stops after the committed chunks ``produced``, or None to go on.
+
+        Without ``dem.precision`` production has the fixed length ``production_strain``; with it,
+        it goes on from ``min_production_strain`` until every target of the run's geometry is met
+        (:mod:`pipeline.dem.precision`) or ``production_strain`` (the cap) is reached.
+        """
+        strain = len(produced) * self.dem["chunk_strain"]
+        precision_cfg = self.dem.get("precision")
+        if precision_cfg is None:
+            if len(produced) < plan["production_chunks"]:
+                return None
+            return {"design": "fixed length", "reason": "fixed production length reached", "strain": strain,
+                    "chunks": len(produced)}
+        if len(produced) < self._min_production_chunks(plan):
+            return None
+        measured = self.production_precision(produced, precision_cfg)
+        # JSON has no infinity: an unresolved error is recorded as null.
+        measured["reached"] = {k: (v if math.isfinite(v) else None) for k, v in measured["reached"].items()}
+        self.state.setdefault("precision_history", {})[str(len(produced))] = measured
+        stop = {"design": "precision target", "targets": self.precision_targets(precision_cfg), "strain": strain,
+                "chunks": len(produced), "cap_strain": plan["production_chunks"] * self.dem["chunk_strain"]} | measured
+        if measured["all_met"]:
+            return stop | {"reason": "every precision target met"}
+        if len(produced) >= plan["production_chunks"]:
+            unmet = sorted(name for name, ok in measured["met"].items() if not ok)
+            return stop | {"reason": f"strain cap dem.production_strain reached with {', '.join(unmet) or 'no target'} unmet"}
+        print(f"{self.label}: precision after {len(produced)} production chunks: "
+              + ", ".join(f"{k} {'unresolved' if v is None else format(v, '.3g')} (target {stop['targets'][k]:g})"
+                          for k, v in measured["reached"].items())
+              + ": going on", flush=True)
+        return None
+
+    def precision_targets(self, precision_cfg: dict[str, Any]) -> dict[str, float]:
+        """The targets that apply to this run: the planar fields (and creep with gravity, or the
+        wall friction without)."""
+        names = ("u_x_over_v", "nu", "log_speed", "log_speed_depth_over_d") if self.case["gravity"] > 0 else ("u_x_over_v", "nu", "mu")
+        return {k: float(precision_cfg[k]) for k in names if k in precision_cfg}
+
+    def production_precision(self, produced: list[dict[str, Any]], precision_cfg: dict[str, Any]) -> dict[str, Any]:
+        """Errors reached by the committed production chunks (:func:`pipeline.dem.precision.measure`)."""
+        d = self.mat["d"]
+        means = precision.chunk_means([self.run_dir / c["dumps"][0] for c in produced], d, self.design.dt,
+                                      self.reference_speed(), self.config.get("calibration", {}).get("bulk_margin_over_d", 3.0) * d)
+        ratios = []
+        for c in produced:
+            wall = read_wall_series(self.run_dir / c["series"])
+            ratios.append(abs(float(wall["ftop_x"].mean())) / float(wall["ftop_z"].mean()))
+        return precision.measure(means, d, np.array(ratios), self.precision_targets(precision_cfg), self.case["gravity"] > 0)
 
     def _progress(self, chunk: dict[str, Any], plan: dict[str, int]) -> None:
         """One line per chunk on stdout (the rule's log): where the run stands and what is left.
@@ -515,6 +588,17 @@ class PlanarShearRun:
         return {"mean_x": mean_x, "mean_y": float(sums["fsum_y"].mean()),
                 "over_top_shear_force": mean_x / abs(shear) if shear else float("nan")}
 
+    def steps_by_stage(self) -> dict[str, int]:
+        """Time steps spent in each stage: fill (pour and settle), shear to the steady state, production."""
+        return {"fill": int(self.state["fill"].get("steps", 0))} | {kind: int(sum(c["steps"] for c in self.state["chunks"] if c["kind"] == kind)) for kind in ("shear", "production")}
+
+    def seconds_by_stage(self) -> dict[str, float]:
+        """Wall-clock seconds of LIGGGHTS in each stage (fill, shear, production)."""
+        out = {"fill": float(self.state["fill"]["wall_seconds"])}
+        for kind in ("shear", "production"):
+            out[kind] = float(sum(c["wall_seconds"] for c in self.state["chunks"] if c["kind"] == kind))
+        return out
+
     def _record(self, plan: dict[str, int]) -> dict[str, Any]:
         production = [c for c in self.state["chunks"] if c["kind"] == "production"]
         prod_series = self.series(("production",))
@@ -548,6 +632,10 @@ class PlanarShearRun:
             "steps": int(sum(c["steps"] for c in self.state["chunks"])),
             "shear_chunks": sum(1 for c in self.state["chunks"] if c["kind"] == "shear"),
             "production_chunks": len(production),
+            "production_strain": len(production) * self.dem["chunk_strain"],
+            "production_stop": self.state.get("production_stop"),
+            "steps_by_stage": self.steps_by_stage(),
+            "wall_seconds_by_stage": self.seconds_by_stage(),
             "chunk_steps": plan["chunk_steps"],
             "dump_every": plan["dump_every"],
             "wall_clock_seconds": self.state["wall_seconds"],

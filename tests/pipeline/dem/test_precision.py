@@ -1,0 +1,59 @@
+"""The production's stopping rule: batch-means errors of the scored fields against targets."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from pipeline.dem import precision
+
+
+def test_standard_error_is_the_error_of_the_mean(rng: np.random.Generator) -> None:
+    # 4000 independent sets of 6 blocks of unit-variance noise: the stated error of each mean is
+    # 1/sqrt(6) on average (within the chi distribution's bias), and the means scatter by it.
+    blocks = rng.normal(size=(6, 4000))
+    err = precision.standard_error(blocks)
+    assert abs(np.sqrt(np.mean(err**2)) - 1.0 / math.sqrt(6.0)) < 0.02
+    assert abs(blocks.mean(axis=0).std() - 1.0 / math.sqrt(6.0)) < 0.02
+
+
+def test_fewer_blocks_than_the_minimum_give_no_error() -> None:
+    assert np.all(np.isnan(precision.standard_error(np.ones((precision.MIN_BLOCKS - 1, 3)))))
+
+
+def _means(rng: np.random.Generator, blocks: int, creep_noise: float) -> precision.ChunkMeans:
+    d = 0.002
+    depth = (np.arange(20) + 0.5) * d
+    creep = np.exp(-depth / (2 * d))  # u/V from 0.8 at the wall to 5e-5 at 20 d
+    return precision.ChunkMeans(
+        u_x_over_v=creep + 0.001 * rng.normal(size=(blocks, 20)),
+        nu=0.58 + 0.001 * rng.normal(size=(blocks, 20)),
+        u_disp_over_v=creep + creep_noise * rng.normal(size=(blocks, 20)),
+        depth=depth, bulk=(depth > 3 * d) & (depth < 17 * d))
+
+
+def test_log_speed_target_depends_on_the_depth_scored(rng: np.random.Generator) -> None:
+    # Noise 1e-4 V per block, 4e-5 on the mean of 6: at 4 d (u/V = 0.14) the log error is
+    # 4e-5 / (0.14 ln10), tiny; at 19.5 d (u/V = 6e-5) the speed is not resolved at 2 sigma.
+    means = _means(rng, 6, 1e-4)
+    shallow = precision.measure(means, 0.002, None, {"log_speed": 0.1, "log_speed_depth_over_d": 4.0}, gravity=True)
+    deep = precision.measure(means, 0.002, None, {"log_speed": 0.1, "log_speed_depth_over_d": 20.0}, gravity=True)
+    assert shallow["all_met"] and shallow["reached"]["log_speed"] < 0.01
+    assert not deep["all_met"] and deep["reached"]["log_speed"] == math.inf
+
+
+def test_targets_of_the_geometry_only(rng: np.random.Generator) -> None:
+    means = _means(rng, 4, 1e-4)
+    targets = {"u_x_over_v": 0.01, "nu": 0.002, "mu": 0.005}
+    out = precision.measure(means, 0.002, np.array([0.40, 0.41, 0.39, 0.40]), targets, gravity=False)
+    assert set(out["reached"]) == {"u_x_over_v", "nu", "mu"}
+    # The friction's blocks scatter by 0.008: error 0.004, within the target.
+    assert abs(out["reached"]["mu"] - np.std([0.40, 0.41, 0.39, 0.40], ddof=1) / 2.0) < 1e-12
+    assert out["all_met"]
+    # With gravity the wall friction is not a target (the profile is scored, not one friction).
+    assert "mu" not in precision.measure(means, 0.002, np.ones(4), targets, gravity=True)["reached"]
+
+
+def test_too_few_chunks_meet_nothing(rng: np.random.Generator) -> None:
+    out = precision.measure(_means(rng, 2, 1e-4), 0.002, None, {"u_x_over_v": 1.0}, gravity=True)
+    assert out == {"blocks": 2, "reached": {}, "met": {}, "all_met": False}
