@@ -31,7 +31,7 @@ import pandas as pd
 import xarray as xr
 
 from pipeline.coarse_graining import field_checks
-from pipeline.coarse_graining.coarse_grain import (CoarseGrainError, Result, check_contacts_match, coarse_grain, contact_index, plane_grid,
+from pipeline.coarse_graining.coarse_grain import (CoarseGrainError, Result, block_average, check_contacts_match, coarse_grain, contact_index, plane_grid,
                                    profile_grid, write_netcdf)
 from pipeline.dumps.store import STORE_NAME, parse_run, read_run_json, read_store
 from pipeline.dumps.reader import Dump, DumpError, shift_periodic_x
@@ -165,12 +165,42 @@ def run_fields(config: dict[str, Any], run_dir: Path, plane: bool = False,
                                         "displacement over the window (pipeline.coarse_graining.displacement)"})
         ds["u_x_disp_err"] = ("z", u_disp_err, {"units": "m s-1", "long_name": "standard error of u_x_disp from "
                                                 f"{min(int(opts['blocks']), chosen.size - 1)} sub-window batch means"})
+    if not plane and x_shift is None:
+        ds.attrs.update(bulk_means(result, ds, walls, opts, d, float(run["density"])))
     found: dict[str, Any] = {}
     if checks and not plane:
         found = physical_checks(ds, run, run_dir, particles, contacts, chosen, kernel, walls, opts)
         for key, value in found.items():
             ds.attrs[f"check_{key}"] = value
     return result, found
+
+
+#: Fields whose bulk mean (and its error) the fields file carries as ``bulk_<name>`` attributes.
+BULK_FIELDS = ("nu", "p", "mu", "I", "shear_rate", "sigma_xx", "sigma_yy", "sigma_zz", "sigma_xz", "fluidity",
+               "granular_temperature")
+
+
+def bulk_means(result: Result, ds: xr.Dataset, walls: field_checks.WallGeometry, opts: dict[str, Any], d: float,
+               rho_s: float) -> dict[str, float]:
+    """Bulk means (``bulk_margin_over_d`` from both walls' mean heights) with their own errors.
+
+    The per-snapshot sums are averaged over the bulk points first and the fields derived from
+    those, then block-averaged like the profiles (:func:`block_average`): the error of a bulk mean
+    then counts the points' correlations (kernel overlap, a wall oscillation shared by the whole
+    layer) as they are, where the mean of the pointwise errors would count them as total.
+    """
+    margin = opts["bulk_margin_over_d"] * d
+    z = ds.z.values
+    inside = (z >= walls.bottom_mean + margin) & (z <= walls.top_mean - margin)
+    if inside.sum() < 3:
+        return {}
+    sums = result.sums[..., inside].mean(axis=-1, keepdims=True)
+    fields, errors, _ = block_average(sums, int(opts["blocks"]), d, rho_s)
+    out: dict[str, float] = {"bulk_margin_over_d": float(opts["bulk_margin_over_d"])}
+    for name in BULK_FIELDS:
+        out[f"bulk_{name}"] = float(fields[name][0])
+        out[f"bulk_{name}_err"] = float(errors[name][0])
+    return out
 
 
 def physical_checks(ds: xr.Dataset, run: dict[str, Any], run_dir: Path, particles: Dump, contacts: Dump | None,

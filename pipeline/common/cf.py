@@ -44,10 +44,19 @@ _DIMENSIONLESS_SUFFIXES = ("_over_d", "_over_p", "_over_err", "_ratio", "_residu
                            "_count", "_points")
 
 
+#: Units of the bulk means ``bulk_<field>`` (and ``bulk_<field>_err``) of the fields files.
+BULK_UNITS = {"nu": "1", "p": "Pa", "mu": "1", "I": "1", "shear_rate": "s-1", "fluidity": "s-1",
+              "granular_temperature": "m2 s-2", "margin_over_d": "1"}
+
+
 def attribute_units(name: str) -> str | None:
     """Units of a numeric global attribute, or None where none is known."""
     if name in ATTRIBUTE_UNITS:
         return ATTRIBUTE_UNITS[name]
+    if name.startswith("bulk_"):
+        field = name[5:].removesuffix("_err")
+        if field in BULK_UNITS:
+            return BULK_UNITS[field]
     base = name[6:] if name.startswith("check_") else name
     base = base[8:] if base.startswith("balance_") else base
     if base in ATTRIBUTE_UNITS:

@@ -96,20 +96,23 @@ def averaging_sweep(config: dict[str, Any], case: str, run_dirs: list[Path]) -> 
         particles, _ = load_tables(run_dir, run)
         tracks.append((particles, steady_snapshots(particles, run), float(run["time_step"]),
                        Kernel(opts["kernel"], opts["width_over_d"] * float(run["d"]))))
-    n_snap = min(r.sums.shape[0] for r in results)
     rows = []
     for fraction in AVERAGING_FRACTIONS:
-        n = max(2, int(round(fraction * n_snap)))
-        reps = []
+        # The fraction is of each replica's own production: with production to a target precision
+        # replicas may stop at different lengths, and at fraction 1 the sweep is the scored fields.
+        reps, used = [], []
         for result, (particles, chosen, dt, kernel) in zip(results, tracks):
+            n_snap = result.sums.shape[0]
+            n = max(2, int(round(fraction * n_snap)))
+            used.append(n / n_snap)
             ds = truncated_fields(result.dataset, result.sums, n, blocks)
             # The displacement-based creep speed over the same shorter window (the creep metrics use it).
             u, err = displacement_velocity(particles, chosen[:n], particles.timesteps[chosen[:n]] * dt, kernel,
                                            ds.z.values, blocks)
             reps.append(ds.assign(u_x_disp=("z", u), u_x_disp_err=("z", err)))
-        used = n / n_snap
-        costs = [t + used * p for t, p in map(run_cost, runs)]
-        strain = float(np.mean([production_strain(r) for r in runs])) * used
+        costs = [t + share * p for share, (t, p) in zip(used, map(run_cost, runs))]
+        strain = float(np.mean([production_strain(r) * share for r, share in zip(runs, used)]))
+        used = float(np.mean(used))
         for metric, value in noise_rows(reps).items():
             rows.append(_row(case, "averaging_time", runs[0], len(runs), used, strain, float(np.mean(costs)), metric, value))
     return rows
