@@ -30,7 +30,7 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from pipeline.coarse_graining import field_checks
+from pipeline.coarse_graining import field_checks, structure
 from pipeline.coarse_graining.coarse_grain import (CoarseGrainError, Result, block_average, check_contacts_match, coarse_grain, contact_index, plane_grid,
                                    profile_grid, write_netcdf)
 from pipeline.dumps.store import STORE_NAME, parse_run, read_run_json, read_store
@@ -167,12 +167,30 @@ def run_fields(config: dict[str, Any], run_dir: Path, plane: bool = False,
                                                 f"{min(int(opts['blocks']), chosen.size - 1)} sub-window batch means"})
     if not plane and x_shift is None:
         ds.attrs.update(bulk_means(result, ds, walls, opts, d, float(run["density"])))
+        add_structural_error(ds, particles, chosen, kernel, d, opts["bulk_margin_over_d"] * d)
     found: dict[str, Any] = {}
     if checks and not plane:
         found = physical_checks(ds, run, run_dir, particles, contacts, chosen, kernel, walls, opts)
         for key, value in found.items():
             ds.attrs[f"check_{key}"] = value
     return result, found
+
+
+def add_structural_error(ds: xr.Dataset, particles: Dump, chosen: np.ndarray, kernel: Kernel, d: float,
+                         margin: float) -> None:
+    """``nu_err`` becomes the larger of the time error and the packing's structural error
+    (:mod:`pipeline.coarse_graining.structure`); both are kept as ``nu_err_time`` and
+    ``nu_err_structure``; ``margin`` (m) from the walls bounds the points the exponent is fitted on."""
+    z = ds.z.values
+    bulk = (z >= float(ds.attrs["z_bottom_wall"]) + margin) & (z <= float(ds.attrs["z_top_wall"]) - margin)
+    frozen, alpha, (nx, ny) = structure.structural_error(particles, chosen, kernel, z, d, bulk)
+    ds["nu_err_time"] = ("z", ds["nu_err"].values.copy(),
+                         {"units": "1", "long_name": "standard error of nu from the time blocks"})
+    ds["nu_err_structure"] = ("z", frozen, {"units": "1", "long_name": (
+        f"standard error of nu from the packing's frozen structure: scatter of {nx} x {ny} patches, "
+        f"extrapolated to the cell with variance ~ area^-{alpha:.2f}")})
+    ds.attrs["nu_structure_alpha"] = alpha
+    ds["nu_err"] = ("z", np.fmax(ds["nu_err"].values, frozen), dict(ds["nu_err"].attrs))
 
 
 #: Fields whose bulk mean (and its error) the fields file carries as ``bulk_<name>`` attributes.
