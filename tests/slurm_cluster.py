@@ -2,7 +2,7 @@
 temporary folder as this process's children and stopped by their process ids.
 
 One node (this host, its cores and most of its memory), one partition ``test``,
-``proctrack/linuxproc`` and ``task/none`` (no cgroups inside a container), no accounting storage
+``proctrack/linuxproc`` and ``task/none`` (no cgroups inside a container), ``MpiDefault=pmix``, no accounting storage
 (so ``sacct`` has nothing to say: the executor plugin must ask ``squeue``), ``MinJobAge`` long
 enough that ``squeue`` still shows a finished job when the plugin polls. Its own munge socket
 and ports, so a site's SLURM on the same machine is left alone. Needs root (daemons as SlurmUser
@@ -22,7 +22,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 #: Debian packages that provide the daemons and the client commands.
-PACKAGES = ("slurm-wlm", "munge")
+#: libpmix-dev: slurm's mpi/pmix plugin loads libpmix.so, which only the -dev package links; with
+#: it ``srun`` starts Debian's Open MPI ranks (MpiDefault=pmix, as on most sites).
+PACKAGES = ("slurm-wlm", "munge", "libpmix-dev")
 #: Seconds SLURM keeps a finished job visible to squeue (the plugin polls every ~40 s at first).
 MIN_JOB_AGE = 600
 
@@ -50,7 +52,7 @@ class Cluster:
 
 def install() -> None:
     """Install the packages when a daemon is missing (as scripts/install.sh does for LIGGGHTS)."""
-    if all(shutil.which(b) for b in ("slurmctld", "slurmd", "sbatch", "squeue", "munged")):
+    if all(shutil.which(b) for b in ("slurmctld", "slurmd", "sbatch", "squeue", "munged")) and _pmix_linked():
         return
     if os.geteuid() != 0:
         raise ClusterError("SLURM is not installed and installing it needs root (apt-get install slurm-wlm munge)")
@@ -59,6 +61,10 @@ def install() -> None:
         proc = subprocess.run(cmd, env=env, capture_output=True, text=True, check=False)
         if proc.returncode != 0:
             raise ClusterError(f"{' '.join(cmd)} failed (exit {proc.returncode}): {proc.stderr[-2000:]}")
+
+
+def _pmix_linked() -> bool:
+    return any(Path(d).glob("libpmix.so") for d in ("/usr/lib/x86_64-linux-gnu", "/usr/lib/aarch64-linux-gnu", "/usr/lib"))
 
 
 def _free_port() -> int:
@@ -83,7 +89,7 @@ def slurm_conf(folder: Path, host: str, cpus: int, memory_mb: int, munge_socket:
         "ProctrackType=proctrack/linuxproc", "TaskPlugin=task/none",
         "SchedulerType=sched/backfill", "SelectType=select/cons_tres", "SelectTypeParameters=CR_Core_Memory",
         "AccountingStorageType=accounting_storage/none", "JobAcctGatherType=jobacct_gather/none",
-        "JobCompType=jobcomp/none", "MpiDefault=none", "ReturnToService=2",
+        "JobCompType=jobcomp/none", "MpiDefault=pmix", "ReturnToService=2",
         f"MinJobAge={MIN_JOB_AGE}", "KillWait=5", "InactiveLimit=0",
         f"NodeName={host} CPUs={cpus} RealMemory={memory_mb} State=UNKNOWN",
         f"PartitionName=test Nodes={host} Default=YES MaxTime=INFINITE State=UP",

@@ -1,0 +1,158 @@
+"""The reduced workflow on a real SLURM cluster (tests/slurm_cluster.py: Debian's slurm-wlm 22.05
+and munge, one node, started here as root and stopped by pid), through the executor plugin and
+profiles/slurm, with LIGGGHTS on 2 MPI ranks started by ``srun`` inside each DEM job's allocation.
+
+What it shows:
+- jobs reach SLURM: every rule's job is in slurmctld's log and ran as a SLURM job;
+- the DEM runs used the ranks the profile asked for (LIGGGHTS's own log: "1 by 1 by 2 MPI
+  processor grid" / "2 MPI processes"), and run.json records them;
+- the scores equal the local reduced run's (``reduced_results``, same config and seeds) within
+  the precision a change of the MPI decomposition allows: the DEM is chaotic, so 2 ranks and 1
+  rank give independent realisations of the same flow, and a score may move by its replica
+  scatter (``dem_noise``); the test allows 4 times that (with ~50 scores, a 2.5-sigma bound
+  per score would fail about half the runs by chance; at 4 sigma of a difference of two draws,
+  2.8 sigma of each, a false alarm is ~0.5 % per score);
+- a DEM job killed by SLURM (``scancel`` while it runs a chunk) fails loudly, keeps its
+  committed chunks, and the workflow's retry (profile ``retries``) completes it from there: its
+  fill and early chunks are not run again.
+Where SLURM cannot be started here (not root, packages unavailable) the test fails with the
+reason; it never skips.
+"""
+from __future__ import annotations
+
+import json
+import math
+import re
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from tests.slurm_cluster import Cluster, local_cluster
+
+pytestmark = [pytest.mark.liggghts, pytest.mark.slurm]
+
+REPO = Path(__file__).resolve().parents[3]
+PROFILE = REPO / "profiles" / "slurm"
+RANKS = 2
+#: The DEM run the test cancels: the longest of the reduced set, so it is caught inside a chunk.
+CANCELLED = ("shear_gravity", "r1")
+#: Allowed |slurm - local| of a score, in units of its DEM noise (module docstring).
+NOISE_UNITS = 4.0
+
+
+def slurm_command(out: Path) -> list[str]:
+    """The reduced workflow through the profile, adapted to this one-node cluster as a user would
+    adapt it to theirs: partition, ranks per DEM job, memory, logs under the output root, and job
+    status from squeue (no accounting database here)."""
+    return [
+        sys.executable, "-m", "snakemake", "--profile", str(PROFILE), "--configfile", "config/ci.yaml",
+        "--config", f"output_root={out}", "--jobs", "4",
+        "--default-resources", "slurm_partition=test", "mem_mb=1000", "runtime=30", "cpus_per_task=1", "tasks=1",
+        # --set-resources replaces the profile's whole set: the DEM's launcher is named again.
+        "--set-resources", "dem:mpi=srun", f"dem:tasks={RANKS}", "dem:cpus_per_task=1", "dem:mem_mb_per_cpu=1000",
+        "dem:mem_mb=0", "dem:runtime=30",
+        "dump_store:mem_mb=2000", "fields:mem_mb=2000", "calibrate:mem_mb=2000", "report:mem_mb=2000",
+        "failure_catalogue:runtime=30",
+        "--slurm-status-command", "squeue", "--slurm-logdir", str(out / "logs" / "slurm"),
+        "--slurm-init-seconds-before-status-checks", "5", "--slurm-no-account",
+        "--latency-wait", "10", "--retries", "1",
+    ]
+
+
+def cancel_mid_chunk(cluster: Cluster, run_dir: Path, seen: dict, timeout: float = 900.0) -> None:
+    """Watch for the DEM job of ``run_dir`` and ``scancel`` it once it has committed its fill and a
+    chunk and is inside the next one; record what was on disk then."""
+    end = time.monotonic() + timeout
+    state = run_dir / "state.json"
+    while time.monotonic() < end:
+        chunks = json.loads(state.read_text()).get("chunks", []) if state.exists() else []
+        if len(chunks) >= 1:
+            queue = cluster.run("squeue", "-h", "-t", "RUNNING", "-o", "%i %k", check=False).stdout
+            # The plugin puts the rule and the wildcards' values in the job's comment.
+            for line in queue.splitlines():
+                job, _, comment = line.partition(" ")
+                if comment.strip() == f"rule_dem_wildcards_{CANCELLED[0]}_{CANCELLED[1]}":
+                    seen["chunks_at_cancel"] = [c["stage"] for c in chunks]
+                    seen["fill_log_mtime"] = (run_dir / "logs" / "fill.log").stat().st_mtime_ns
+                    seen["job"] = job
+                    seen["scancel"] = cluster.run("scancel", job, check=False).returncode
+                    return
+        time.sleep(0.5)
+    seen["error"] = "the job to cancel was not seen running with a committed chunk"
+
+
+@pytest.fixture(scope="module")
+def slurm_run(tmp_path_factory: pytest.TempPathFactory) -> dict:
+    base = tmp_path_factory.mktemp("slurm")
+    out = base / "results"
+    with local_cluster(base / "cluster") as cluster:
+        seen: dict = {}
+        watcher = threading.Thread(target=cancel_mid_chunk, args=(cluster, out / "dem" / CANCELLED[0] / CANCELLED[1], seen),
+                                   daemon=True)
+        watcher.start()
+        start = time.monotonic()
+        proc = subprocess.run(slurm_command(out), cwd=REPO, env=cluster.env, capture_output=True, text=True,
+                              check=False, timeout=1800)
+        seconds = time.monotonic() - start
+        watcher.join(timeout=5)
+        ctld_log = cluster.log("slurmctld")
+        jobs = cluster.run("squeue", "-h", "-t", "all", "-o", "%i|%T|%k|%D|%C", check=False).stdout
+    if proc.returncode != 0:
+        pytest.fail(f"workflow through SLURM failed (exit {proc.returncode}):\n{proc.stdout[-4000:]}\n{proc.stderr[-6000:]}")
+    print(f"\nSLURM workflow: {seconds:.0f} s wall; jobs:\n{jobs}")
+    return {"out": out, "seen": seen, "ctld_log": ctld_log, "jobs": jobs, "seconds": seconds, "stderr": proc.stderr}
+
+
+def test_jobs_ran_as_slurm_jobs(slurm_run: dict) -> None:
+    rows = [line.split("|") for line in slurm_run["jobs"].splitlines() if line.strip()]
+    states = pd.Series([r[1] for r in rows]).value_counts()
+    print(f"job states in squeue: {states.to_dict()}")
+    # The cancelled job and its retry are both there; every other job completed.
+    assert states.get("COMPLETED", 0) >= 40
+    assert set(states.index) <= {"COMPLETED", "CANCELLED"}
+    assert states.get("CANCELLED", 0) == 1
+    assert slurm_run["ctld_log"].count("_slurm_rpc_submit_batch_job") == len(rows)
+
+
+def test_dem_ran_on_the_ranks_the_profile_asked_for(slurm_run: dict) -> None:
+    records = sorted((slurm_run["out"] / "dem").glob("*/*/run.json"))
+    assert records
+    for path in records:
+        run = json.loads(path.read_text())
+        assert run["mpi_ranks"] == RANKS and run["mpi_launcher"] == "srun", path
+        log = (path.parent / "logs" / "production_000.log").read_text()
+        grids = [math.prod(int(n) for n in g) for g in re.findall(r"(\d+) by (\d+) by (\d+) MPI processor grid", log)]
+        assert grids and all(g == RANKS for g in grids), (path, grids)
+
+
+def test_scores_equal_the_local_run_within_the_decomposition_noise(slurm_run: dict, reduced_results: Path) -> None:
+    local = pd.read_csv(reduced_results / "scores.csv")
+    remote = pd.read_csv(slurm_run["out"] / "scores.csv")
+    both = local.merge(remote, on=["case", "model", "metric"], suffixes=("_local", "_slurm"))
+    assert len(both) == len(local) == len(remote)
+    finite = both[both.value_local.map(math.isfinite) & both.value_slurm.map(math.isfinite)]
+    assert (both.value_local.map(math.isfinite) == both.value_slurm.map(math.isfinite)).all()
+    diff = (finite.value_slurm - finite.value_local).abs()
+    units = diff / finite.dem_noise_local.where(finite.dem_noise_local > 0)
+    print("largest |slurm - local| / dem_noise:\n" + finite.assign(units=units).nlargest(5, "units")[
+        ["case", "model", "metric", "value_local", "value_slurm", "dem_noise_local", "units"]].to_string(index=False))
+    assert (units.dropna() <= NOISE_UNITS).all()
+
+
+def test_cancelled_dem_job_resumed_from_its_committed_chunks(slurm_run: dict) -> None:
+    seen = slurm_run["seen"]
+    assert "error" not in seen, seen.get("error")
+    assert seen["scancel"] == 0
+    run_dir = slurm_run["out"] / "dem" / CANCELLED[0] / CANCELLED[1]
+    state = json.loads((run_dir / "state.json").read_text())
+    stages = [c["stage"] for c in state["chunks"]]
+    # The chunks committed before the cancel are the first ones of the finished run, not redone:
+    # the fill's log is the one written before the cancel.
+    assert stages[: len(seen["chunks_at_cancel"])] == seen["chunks_at_cancel"]
+    assert (run_dir / "logs" / "fill.log").stat().st_mtime_ns == seen["fill_log_mtime"]
+    assert (run_dir / "run.json").exists()
