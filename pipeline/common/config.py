@@ -125,11 +125,24 @@ def working_pressure(config: dict[str, Any], case_name: str) -> float:
     return max(loads) + weight / area
 
 
+class _Loader(yaml.SafeLoader):
+    """PyYAML's safe loader, reading ``1e-5`` as a number as YAML 1.2 and JSON do (PyYAML follows
+    YAML 1.1, where a float needs a dot: ``1e-05`` would be a string, and a config written as JSON
+    by the workflow would not read back)."""
+
+
+_Loader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?(?:[0-9][0-9_]*)(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"),
+    list("-+0123456789"),
+)
+
+
 def load_config(path: str | Path) -> dict[str, Any]:
-    """Read a YAML config file and validate it."""
+    """Read a YAML (or JSON) config file and validate it."""
     path = Path(path)
     try:
-        config = yaml.safe_load(path.read_text())
+        config = yaml.load(path.read_text(), Loader=_Loader)  # noqa: S506 (a SafeLoader subclass)
     except FileNotFoundError:
         raise ConfigError(f"{path}: config file not found") from None
     except yaml.YAMLError as exc:

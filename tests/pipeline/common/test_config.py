@@ -87,3 +87,13 @@ def test_runs_and_seeds_are_deterministic(config: dict) -> None:
 def test_schema_is_yaml_loadable() -> None:
     with open("config/schema.yaml") as fh:
         assert yaml.safe_load(fh)["type"] == "object"
+
+
+def test_numbers_in_exponent_form_read_as_numbers(tmp_path) -> None:
+    # PyYAML (YAML 1.1) reads 1e-05 as a string; the workflow writes per-run configs as JSON, which
+    # spells small numbers that way, and a user may too.
+    import yaml as _yaml
+
+    from pipeline.common.config import _Loader
+
+    assert _yaml.load("a: 1e-05\nb: 2.5E+3\nc: 1_000\nd: e5", Loader=_Loader) == {"a": 1e-05, "b": 2500.0, "c": 1000, "d": "e5"}
