@@ -5,8 +5,12 @@ One node (this host, its cores and most of its memory), one partition ``test``,
 ``proctrack/linuxproc`` and ``task/none`` (no cgroups inside a container), ``MpiDefault=pmix``, no accounting storage
 (so ``sacct`` has nothing to say: the executor plugin must ask ``squeue``), ``MinJobAge`` long
 enough that ``squeue`` still shows a finished job when the plugin polls. Its own munge socket
-and ports, so a site's SLURM on the same machine is left alone. Needs root (daemons as SlurmUser
-root).
+and ports. Needs root (daemons as SlurmUser root).
+
+Inside a job the executor plugin's job step drops ``SLURM_CONF`` from the environment (it keeps
+only the allocation's ids), so ``srun`` there reads the default ``/etc/slurm/slurm.conf``, as on
+a real cluster: the cluster links that path to its own config while it runs and removes the link
+at the end. Where a real configuration is already there, it refuses to start rather than touch it.
 """
 from __future__ import annotations
 
@@ -25,6 +29,8 @@ from pathlib import Path
 #: libpmix-dev: slurm's mpi/pmix plugin loads libpmix.so, which only the -dev package links; with
 #: it ``srun`` starts Debian's Open MPI ranks (MpiDefault=pmix, as on most sites).
 PACKAGES = ("slurm-wlm", "munge", "libpmix-dev")
+#: Where SLURM's commands look for the configuration when SLURM_CONF is unset.
+DEFAULT_CONF = Path("/etc/slurm/slurm.conf")
 #: Seconds SLURM keeps a finished job visible to squeue (the plugin polls every ~40 s at first).
 MIN_JOB_AGE = 600
 
@@ -130,9 +136,16 @@ def local_cluster(folder: Path) -> Iterator[Cluster]:
     munge_socket = folder / "munge" / "munge.socket"
     conf = folder / "slurm.conf"
     conf.write_text(slurm_conf(folder, host, os.cpu_count() or 1, int(0.8 * _memory_mb()), munge_socket))
+    if DEFAULT_CONF.is_symlink() and not DEFAULT_CONF.exists():
+        DEFAULT_CONF.unlink()  # left by a test that was killed
+    if DEFAULT_CONF.exists() or DEFAULT_CONF.is_symlink():
+        raise ClusterError(f"{DEFAULT_CONF} exists: a SLURM is configured on this machine; the test starts its own "
+                           "cluster and needs that path for it (jobs' srun reads it): run the test elsewhere")
     env = dict(os.environ, SLURM_CONF=str(conf))
     cluster = Cluster(folder, env)
     procs: dict[str, subprocess.Popen] = {}
+    DEFAULT_CONF.parent.mkdir(parents=True, exist_ok=True)
+    DEFAULT_CONF.symlink_to(conf)
     try:
         procs["munged"] = subprocess.Popen(
             ["munged", "--foreground", "--force", f"--socket={munge_socket}", f"--key-file={key}",
@@ -166,3 +179,5 @@ def local_cluster(folder: Path) -> Iterator[Cluster]:
             except subprocess.TimeoutExpired:
                 os.killpg(p.pid, signal.SIGKILL)
                 p.wait()
+        if DEFAULT_CONF.is_symlink() and os.readlink(DEFAULT_CONF) == str(conf):
+            DEFAULT_CONF.unlink()
