@@ -98,10 +98,12 @@ rule error_check:
     input:
         [f for case in layout.scored_cases(config) for f in layout.fields_paths(config, case)],
     output:
-        f"{ROOT}/validation/error_check.csv",
+        table=f"{ROOT}/validation/error_check.csv",
+        resolution=f"{ROOT}/validation/creep_resolution.csv",
     log:
         f"{ROOT}/logs/error_check.log",
     benchmark:
         f"{ROOT}/benchmarks/error_check.tsv"
     shell:
-        "python -m pipeline.scoring error-check --fields {input} --out {output} > {log} 2>&1"
+        "python -m pipeline.scoring error-check --fields {input} --out {output.table} "
+        "--resolution-out {output.resolution} > {log} 2>&1"

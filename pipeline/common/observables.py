@@ -10,6 +10,8 @@ One definition each, shared by every stage that reads fields:
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import xarray as xr
 
@@ -34,3 +36,32 @@ def log_speed_error(u: np.ndarray, err: np.ndarray) -> np.ndarray:
     with np.errstate(divide="ignore", invalid="ignore"):
         raw = err / (np.abs(u) * np.log(10.0))
     return np.maximum(np.where(np.isfinite(raw), raw, np.inf), LOG_SPEED_ERROR_FLOOR)
+
+
+def decades_resolved(u: np.ndarray, err: np.ndarray, wall_speed: float) -> tuple[float, float]:
+    """Decades of u / V resolved above 2 standard errors, and the slowest resolved u / V.
+
+    The profile is walked from its fastest point away from the moving wall (``u`` ordered from the
+    top wall down, or any order: the walk goes down the indices' direction away from the maximum
+    towards the slower side); the stretch ends at the first point with ``u <= 2 err`` (or no
+    error), so a noise spike deeper down does not count. Returns ``(log10(u_max / u_min), u_min /
+    V)``; ``(0, nan)`` when nothing is resolved.
+    """
+    u = np.asarray(u, dtype=float)
+    err = np.asarray(err, dtype=float)
+    finite = np.isfinite(u)
+    if not finite.any():
+        return 0.0, float("nan")
+    top = int(np.nanargmax(np.where(finite, u, -np.inf)))
+    # Walk towards the slower end: the side whose far end is slower.
+    left, right = u[:top + 1][::-1], u[top:]
+    side = -1 if np.nanmin(left) < np.nanmin(right) else 1
+    order = np.arange(top, -1, -1) if side < 0 else np.arange(top, u.size)
+    slowest = math.nan
+    for i in order:
+        if not (np.isfinite(u[i]) and np.isfinite(err[i]) and u[i] > 2.0 * err[i]):
+            break
+        slowest = float(u[i]) if math.isnan(slowest) else min(slowest, float(u[i]))
+    if math.isnan(slowest):
+        return 0.0, float("nan")
+    return float(math.log10(u[top] / slowest)), slowest / wall_speed

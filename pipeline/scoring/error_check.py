@@ -23,6 +23,7 @@ import pandas as pd
 import xarray as xr
 
 from pipeline.common import atomic
+from pipeline.common.observables import creep_speed, decades_resolved
 from pipeline.scoring.scores import align_replicas, interior
 
 FIELDS = ("u_x", "u_x_disp", "nu", "sigma_zz", "sigma_xz", "mu")
@@ -50,11 +51,81 @@ def replica_chi2(reps: list[xr.Dataset], field: str) -> dict[str, float]:
             "points": int(values.size / pairs)}
 
 
+def creep_resolution(paths: list[Path]) -> pd.DataFrame:
+    """Per run (gravity cases): decades of u_x / V resolved above 2 sigma inside the walls, from
+    the snapshot-averaged ``u_x``, from ``u_x_disp``, and from the pointwise better of the two (the
+    scores' choice, :func:`pipeline.common.observables.creep_speed`), with the slowest resolved
+    u_x / V of each."""
+    rows = []
+    for path in sorted(paths):
+        with xr.open_dataset(path) as ds:
+            if float(ds.attrs.get("gravity", 0.0)) <= 0 or "u_x_disp" not in ds:
+                continue
+            mask = interior(ds)
+            v = float(ds.attrs["wall_speed"])
+            best_u, best_err, _ = creep_speed(ds)
+            sources = {"u_x": (ds["u_x"].values, ds["u_x_err"].values),
+                       "u_x_disp": (ds["u_x_disp"].values, ds["u_x_disp_err"].values),
+                       "best": (best_u, best_err)}
+            row = {"case": path.parent.name, "run": path.stem}
+            for name, (u, err) in sources.items():
+                decades, slowest = decades_resolved(u[mask], err[mask], v)
+                row[f"decades_{name}"] = decades
+                row[f"slowest_over_v_{name}"] = slowest
+            rows.append(row)
+    rows.extend(replica_mean_resolution(paths))
+    return pd.DataFrame(rows, columns=["case", "run", *(f"{k}_{s}" for s in ("u_x", "u_x_disp", "best")
+                                                         for k in ("decades", "slowest_over_v"))])
+
+
+def replica_mean_resolution(paths: list[Path]) -> list[dict[str, object]]:
+    """The same for the mean of each case's replicas (run ids ``r<k>``), aligned by depth below
+    the top wall: the case's creep profile. Its error is the larger of the combined stated errors
+    and the replicas' scatter over sqrt(n) (the replicas differ by more than their stated errors
+    where the packing's structure is frozen)."""
+    rows = []
+    for case in sorted({p.parent.name for p in paths}):
+        files = sorted(p for p in paths if p.parent.name == case and p.stem.startswith("r") and p.stem[1:].isdigit())
+        if len(files) < 2:
+            continue
+        sets = [xr.open_dataset(f) for f in files]
+        try:
+            if float(sets[0].attrs.get("gravity", 0.0)) <= 0 or any("u_x_disp" not in ds for ds in sets):
+                continue
+            first = sets[0]
+            mask = interior(first)
+            depth = float(first.attrs["z_top_wall"]) - first.z.values[mask]
+            us, errs = [], []
+            for ds in sets:
+                u, err, _ = creep_speed(ds)
+                own = float(ds.attrs["z_top_wall"]) - ds.z.values
+                order = np.argsort(own)
+                us.append(np.interp(depth, own[order], u[order], left=np.nan, right=np.nan))
+                errs.append(np.interp(depth, own[order], err[order], left=np.nan, right=np.nan))
+            us, errs = np.array(us), np.array(errs)
+            n = len(files)
+            mean = us.mean(axis=0)
+            err = np.fmax(np.sqrt(np.sum(errs**2, axis=0)) / n, us.std(axis=0, ddof=1) / math.sqrt(n))
+            # Ordered from the bottom up like a profile: depth decreasing.
+            decades, slowest = decades_resolved(mean[::-1], err[::-1], float(first.attrs["wall_speed"]))
+            rows.append({"case": case, "run": f"mean of {n} replicas", "decades_best": decades, "slowest_over_v_best": slowest})
+        finally:
+            for ds in sets:
+                ds.close()
+    return rows
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description="Replica scatter against the stated error bars, per case and field.")
     parser.add_argument("--fields", nargs="+", required=True, type=Path, help="fields/CASE/RUN.nc (replicas grouped by folder)")
     parser.add_argument("--out", required=True, type=Path)
+    parser.add_argument("--resolution-out", type=Path, default=None,
+                        help="also write the decades of creep each run resolves (validation/creep_resolution.csv)")
     args = parser.parse_args(argv)
+    if args.resolution_out is not None:
+        resolution = creep_resolution(args.fields)
+        atomic.write_csv(resolution, args.resolution_out)
+        print(resolution.to_string(index=False))
     rows = []
     for case in sorted({p.parent.name for p in args.fields}):
         files = sorted(p for p in args.fields if p.parent.name == case)
