@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 import xarray as xr
 
-from pipeline.coarse_graining.coarse_grain import batch
+from pipeline.coarse_graining.coarse_grain import batch, derive, integrated_autocorrelation_time
 from pipeline.dumps.reader import Dump
 from pipeline.coarse_graining.kernels import Kernel
 
@@ -66,7 +66,15 @@ def momentum_balance(ds: xr.Dataset, gravity: float, z_lo: float, z_hi: float) -
     def over(value: float, error: float) -> float:
         return value / error if error > 0 else float("nan")
 
+    xz_errors = ds.variables["sigma_xz_err"].values[bulk]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        # RMS of the pointwise residual over its own error: 1 when the errors hold (the max above
+        # is the largest of ~bulk / kernel-width independent values, ~2-2.5 errors by chance).
+        rms_xz = float(np.sqrt(np.mean(((sxz - sxz.mean()) / xz_errors) ** 2))) if np.all(xz_errors > 0) else float("nan")
+        rms_zz = float(np.sqrt(np.mean(((s - s.mean()) / zz_errors) ** 2))) if np.all(zz_errors > 0) else float("nan")
     return {
+        "residual_xz_rms_over_err": rms_xz,
+        "residual_zz_rms_over_err": rms_zz,
         "residual_xz_over_err": over(float(np.max(np.abs(sxz - sxz.mean()))), xz_err),
         "residual_zz_over_err": over(float(np.max(np.abs(s - s.mean()))), zz_err),
         "slope_zz_err": slope_err,
@@ -82,6 +90,48 @@ def momentum_balance(ds: xr.Dataset, gravity: float, z_lo: float, z_hi: float) -
         "bulk_z_lo": float(zb[0]),
         "bulk_z_hi": float(zb[-1]),
     }
+
+
+def mean_error(series: np.ndarray, blocks: int) -> float:
+    """Standard error of the mean of a time series: the larger of the batch-means error over
+    ``blocks`` blocks and ``std sqrt(2 tau / n)`` with tau its integrated autocorrelation time (the
+    rule of :func:`pipeline.coarse_graining.coarse_grain.block_average`)."""
+    series = np.asarray(series, dtype=float)
+    n = series.size
+    used = min(int(blocks), n)
+    if used < 2:
+        return float("nan")
+    means = np.array([b.mean() for b in np.array_split(series, used)])
+    block_err = float(means.std(ddof=1) / math.sqrt(used))
+    tau = float(integrated_autocorrelation_time(series[:, None])[0])
+    ac_err = float(series.std(ddof=1) * math.sqrt(2.0 * (tau if math.isfinite(tau) else 0.5) / n))
+    return max(block_err, ac_err)
+
+
+def slope_series_check(sums: np.ndarray, z: np.ndarray, z_lo: float, z_hi: float, gravity: float, d: float,
+                       rho_s: float, blocks: int) -> dict[str, float]:
+    """The hydrostatic slope of sigma_zz snapshot by snapshot, and the error of its mean.
+
+    The pointwise errors of sigma_zz are strongly correlated along z (the load-controlled wall
+    moves the whole bed: its vertical oscillation tilts the whole profile at once), so a line fit
+    that takes the points as independent misjudges the slope's error. Here each snapshot's bulk
+    profile gets its own least-squares slope and its own expected slope ``-g mean(rho_body)``; the
+    mean deviation's error comes from the series of deviations, with its correlation time
+    (:func:`mean_error`). The fit is linear in the stresses, so the mean of the snapshots' slopes
+    is the slope of the mean profile (up to the kinetic stress's small nonlinearity).
+    """
+    bulk = (z >= z_lo) & (z <= z_hi)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        fields = derive(np.moveaxis(sums[..., bulk], 0, 1), d, rho_s)
+    szz, rho = fields["sigma_zz"], fields["rho_body"]  # (snapshots, bulk points)
+    zb = z[bulk]
+    slopes = np.polyfit(zb, szz.T, 1)[0]
+    deviation = slopes + gravity * rho.mean(axis=1)
+    err = mean_error(deviation, blocks)
+    return {"slope_zz_series_err": mean_error(slopes, blocks),
+            "slope_zz_series_deviation": float(deviation.mean()),
+            # A static bed has no fluctuation: no error to compare with.
+            "slope_zz_series_deviation_over_err": float(deviation.mean() / err) if err > 0 else float("nan")}
 
 
 @dataclass

@@ -170,7 +170,7 @@ def run_fields(config: dict[str, Any], run_dir: Path, plane: bool = False,
         add_structural_error(ds, particles, chosen, kernel, d, opts["bulk_margin_over_d"] * d)
     found: dict[str, Any] = {}
     if checks and not plane:
-        found = physical_checks(ds, run, run_dir, particles, contacts, chosen, kernel, walls, opts)
+        found = physical_checks(ds, run, run_dir, particles, contacts, chosen, kernel, walls, opts, result.sums)
         for key, value in found.items():
             ds.attrs[f"check_{key}"] = value
     return result, found
@@ -223,13 +223,18 @@ def bulk_means(result: Result, ds: xr.Dataset, walls: field_checks.WallGeometry,
 
 def physical_checks(ds: xr.Dataset, run: dict[str, Any], run_dir: Path, particles: Dump, contacts: Dump | None,
                     chosen: np.ndarray, kernel: Kernel, walls: field_checks.WallGeometry,
-                    opts: dict[str, Any]) -> dict[str, float]:
-    """Momentum balance and wall stress (see :mod:`pipeline.coarse_graining.field_checks`)."""
+                    opts: dict[str, Any], sums: np.ndarray | None = None) -> dict[str, float]:
+    """Momentum balance and wall stress (see :mod:`pipeline.coarse_graining.field_checks`);
+    ``sums``, the per-snapshot sums of the fields, add the slope's error from its own time series."""
     d, g = float(run["d"]), float(run["gravity"])
     area = float(run["cell"][0] * run["cell"][1])
     margin = opts["bulk_margin_over_d"] * d
     out = {f"balance_{k}": v for k, v in
            field_checks.momentum_balance(ds, g, walls.bottom_max + margin, walls.top_min - margin).items()}
+    if sums is not None and g > 0:
+        out.update({f"balance_{k}": v for k, v in field_checks.slope_series_check(
+            sums, ds.z.values, walls.bottom_max + margin, walls.top_min - margin, g, d, float(run["density"]),
+            int(opts["blocks"])).items()})
     below, _ = field_checks.body_mass_below(particles, chosen, kernel, walls.bottom_max + kernel.cutoff)
     _, above = field_checks.body_mass_below(particles, chosen, kernel, walls.top_min - kernel.cutoff)
     series = production_series(run_dir)

@@ -283,3 +283,22 @@ def test_paraview_collection_and_particles_of_a_real_run(reduced_results: Path, 
     assert cloud.point_data["velocity"].shape[1] == 3 and {"radius", "type"} <= set(cloud.point_data.keys())
     assert "particles_" in (out / "particles.pvd").read_text()
     ds.close()
+
+
+def test_mean_error_counts_the_correlation_time(rng):
+    # AR(1) with coefficient a: the mean of n samples has variance (1 + a) / (1 - a) / n of the
+    # uncorrelated one (a = 0.9: 19 times). 200 series of 2000 samples: the stated errors' RMS
+    # matches the scatter of the means within the sampling noise of both (~10 %).
+    a, n = 0.9, 2000
+    means, errors = [], []
+    for _ in range(200):
+        x = np.empty(n)
+        x[0] = rng.normal()
+        noise = rng.normal(size=n) * np.sqrt(1 - a * a)
+        for i in range(1, n):
+            x[i] = a * x[i - 1] + noise[i]
+        means.append(x.mean())
+        errors.append(field_checks.mean_error(x, 5))
+    expected = np.sqrt((1 + a) / (1 - a) / n)
+    assert abs(np.std(means) / expected - 1) < 0.15
+    assert abs(np.sqrt(np.mean(np.square(errors))) / expected - 1) < 0.15
