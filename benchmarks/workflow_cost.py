@@ -103,9 +103,14 @@ def main(argv: list[str] | None = None) -> int:
               + "; core-s: " + ", ".join(f"{k} {v:.0f}" for k, v in secs.items()))
         print(f"  mean strain per run: shear to steady {c['shear_strain'].mean():.2f}, production {c['production_strain'].mean():.2f}; "
               "stops: " + "; ".join(f"{k}: {v}" for k, v in c["stop"].value_counts().items()))
-    goal_ratio = (costs["targeted"].query("case in @GOAL_CASES")["particle_steps"].sum()
-                  / costs["fixed"].query("case in @GOAL_CASES")["particle_steps"].sum())
-    print(f"\ngoal cases (rheometer, shear_gravity replicas, intruder): targeted / fixed particle-steps = {goal_ratio:.3f}")
+    goal = {name: c[c["case"].isin(GOAL_CASES)] for name, c in costs.items()}
+    common = set(zip(goal["fixed"]["case"], goal["fixed"]["run"])) & set(zip(goal["targeted"]["case"], goal["targeted"]["run"]))
+    same = {name: g[[(a, b) in common for a, b in zip(g["case"], g["run"])]] for name, g in goal.items()}
+    for label, part in (("all their runs", goal), (f"the {len(common)} runs both designs have", same)):
+        steps = part["targeted"]["particle_steps"].sum() / part["fixed"]["particle_steps"].sum()
+        secs = part["targeted"]["core_seconds"].sum() / part["fixed"]["core_seconds"].sum()
+        print(f"\ngoal cases (rheometer, shear_gravity replicas, intruder), {label}: targeted / fixed "
+              f"particle-steps = {steps:.3f}, core-seconds = {secs:.3f}")
     noises = noise(args.fixed).merge(noise(args.targeted), on=["case", "metric"], how="outer", suffixes=("_fixed", "_targeted"))
     noises["ratio"] = noises["dem_noise_targeted"] / noises["dem_noise_fixed"]
     print("\nDEM noise of each scored metric (replica scatter; rheometer: calibration errors)")

@@ -513,6 +513,8 @@ def dem_table(runs: list[dict[str, Any]]) -> pd.DataFrame:
         "dt (s)": r["time_step"], "LIGGGHTS seconds": r["wall_clock_seconds"], "MPI ranks": r["mpi_ranks"],
         "steady from (s)": r["steady_state_window"][0], "end (s)": r["steady_state_window"][1],
         "max overlap / d": r["max_overlap_over_d"],
+        "production strain": r.get("production_strain", float("nan")),
+        "production stopped": (r.get("production_stop") or {}).get("reason", "fixed length"),
     } for r in runs])
 
 
