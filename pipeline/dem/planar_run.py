@@ -540,7 +540,7 @@ class PlanarShearRun:
         """Errors reached by the committed production chunks (:func:`pipeline.dem.precision.measure`)."""
         d = self.mat["d"]
         means = precision.chunk_means([self.run_dir / c["dumps"][0] for c in produced], d, self.design.dt,
-                                      self.reference_speed(), self.config.get("calibration", {}).get("bulk_margin_over_d", 3.0) * d)
+                                      self.reference_speed(), precision.BULK_MARGIN_OVER_D * d)
         ratios = []
         for c in produced:
             wall = read_wall_series(self.run_dir / c["series"])

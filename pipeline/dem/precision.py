@@ -36,6 +36,9 @@ from pipeline.dumps.reader import read_particles
 MIN_BLOCKS = 3
 #: Bin thickness, in d.
 BIN_OVER_D = 1.0
+#: Distance (in d) from each wall's mean height beyond which a bin is bulk: the scores' and the
+#: calibration's default margin (a DEM run's config holds no calibration section to read it from).
+BULK_MARGIN_OVER_D = 3.0
 
 
 @dataclass(frozen=True)
