@@ -27,6 +27,7 @@ import math
 
 import numpy as np
 
+from pipeline.coarse_graining import structure
 from pipeline.coarse_graining.kernels import Kernel
 from pipeline.dumps.reader import Dump
 
@@ -113,3 +114,22 @@ def displacement_velocity(particles: Dump, snapshots: np.ndarray, times: np.ndar
     err = parts.std(axis=0, ddof=1) / math.sqrt(used)
     err[undefined] = np.nan
     return u, err
+
+
+def displacement_structural_error(particles: Dump, snapshots: np.ndarray, times: np.ndarray, kernel: Kernel,
+                                  z_grid: np.ndarray, d: float, bulk: np.ndarray) -> tuple[np.ndarray, float]:
+    """The error of ``u_x_disp`` from the creep's frozen structure: patches of the cell as replicas
+    (:func:`pipeline.coarse_graining.structure.mean_field_error`; grains placed by their position at
+    the window's start). Returns the error on ``z_grid`` (m s-1) and the area exponent used."""
+    snapshots = np.asarray(snapshots)
+    x, z, m, tracked = grain_tracks(particles, snapshots)
+    first = particles.rows(int(snapshots[0]))
+    i_id, i_type, i_y = (particles.index(c) for c in ("id", "type", "y"))
+    first = first[first[:, i_type] == 1]
+    first = first[np.argsort(first[:, i_id], kind="stable")]
+    duration = float(times[-1] - times[0])
+    box = particles.boxes[int(snapshots[0])]
+    v = (x[-1] - x[0]) / duration
+    err, alpha, _ = structure.mean_field_error(np.mod(x[0] - box[0, 0], box[0, 1] - box[0, 0]) + box[0, 0], first[:, i_y],
+                                               z.mean(axis=0), m * tracked, v, box, kernel, z_grid, d, bulk)
+    return err, alpha

@@ -35,7 +35,7 @@ from pipeline.coarse_graining.coarse_grain import (CoarseGrainError, Result, blo
                                    profile_grid, write_netcdf)
 from pipeline.dumps.store import STORE_NAME, parse_run, read_run_json, read_store
 from pipeline.dumps.reader import Dump, DumpError, shift_periodic_x
-from pipeline.coarse_graining.displacement import displacement_velocity
+from pipeline.coarse_graining.displacement import displacement_structural_error, displacement_velocity
 from pipeline.coarse_graining.kernels import Kernel
 from pipeline.coarse_graining.vtk import write_fields_vtk, write_particles_vtu
 from pipeline.common.formats import FIELDS_FORMAT_VERSION
@@ -191,6 +191,15 @@ def add_structural_error(ds: xr.Dataset, particles: Dump, chosen: np.ndarray, ke
         f"extrapolated to the cell with variance ~ area^-{alpha:.2f}")})
     ds.attrs["nu_structure_alpha"] = alpha
     ds["nu_err"] = ("z", np.fmax(ds["nu_err"].values, frozen), dict(ds["nu_err"].attrs))
+    if "u_x_disp" in ds:
+        times = particles.timesteps[chosen] * float(ds.attrs["time_step"])
+        frozen, alpha = displacement_structural_error(particles, chosen, times, kernel, z, d, bulk)
+        ds["u_x_disp_err_time"] = ("z", ds["u_x_disp_err"].values.copy(), dict(ds["u_x_disp_err"].attrs))
+        ds["u_x_disp_err_structure"] = ("z", frozen, {"units": "m s-1", "long_name": (
+            "standard error of u_x_disp from the creep's frozen structure: scatter of patches of the cell, "
+            f"extrapolated to the cell with variance ~ area^-{alpha:.2f}")})
+        ds.attrs["u_x_disp_structure_alpha"] = alpha
+        ds["u_x_disp_err"] = ("z", np.fmax(ds["u_x_disp_err"].values, frozen), dict(ds["u_x_disp_err"].attrs))
 
 
 #: Fields whose bulk mean (and its error) the fields file carries as ``bulk_<name>`` attributes.

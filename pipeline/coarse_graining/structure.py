@@ -12,8 +12,8 @@ independent grains the variance of a region's mean falls as 1 / area, and the ce
 be ``std_k(nu_k) / sqrt(K)``; a dense packing suppresses density fluctuations (they fall faster
 with the area), so that overstates it (replica chi-square 0.1-0.2 on the default run). The
 variance is therefore measured at two patch sizes, ``PATCH_OVER_D`` d and twice that, its decay
-exponent ``alpha`` (variance ~ area^-alpha, bulk-averaged, held in [1, 2]: from Poisson to
-surface-like fluctuations) fitted, and the fine patches' variance extrapolated to the cell's
+exponent ``alpha`` (variance ~ area^-alpha, bulk-averaged, held in [0.5, 2]: from structure
+correlated over more than a patch, through Poisson, to surface-like fluctuations) fitted, and the fine patches' variance extrapolated to the cell's
 area: ``err(z)^2 = var_k(nu_k)(z) (A_patch / A_cell)^alpha``. A cell too small for two patch
 sizes takes alpha = 1. A patch's own time noise is part of its scatter. Units: dimensionless.
 """
@@ -28,8 +28,9 @@ from pipeline.dumps.reader import Dump
 
 #: Smallest patch side, in d: density correlations in dense packings decay over one to two grains.
 PATCH_OVER_D = 2.0
-#: Range of the variance's decay exponent with the patch area (1: independent grains).
-ALPHA_RANGE = (1.0, 2.0)
+#: Range of the variance's decay exponent with the patch area (1: independent grains; below 1:
+#: structure correlated over more than a patch, e.g. creep moving in blocks).
+ALPHA_RANGE = (0.5, 2.0)
 
 
 def patch_counts(lx: float, ly: float, d: float, side_over_d: float = PATCH_OVER_D) -> tuple[int, int]:
@@ -58,6 +59,19 @@ def patch_profiles(particles: Dump, snapshots: np.ndarray, kernel: Kernel, z_gri
     return total / (len(snapshots) * area)
 
 
+def _extrapolate(var_fine: np.ndarray, var_coarse: np.ndarray | None, k_fine: int, k_coarse: int,
+                 bulk: np.ndarray) -> tuple[np.ndarray, float]:
+    """The cell's error from the fine patches' variance, with the area exponent fitted between
+    the two patch sizes over ``bulk`` (module docstring)."""
+    alpha = ALPHA_RANGE[0]
+    if var_coarse is not None and k_coarse >= 2 and bulk.any():
+        with np.errstate(invalid="ignore", divide="ignore"):
+            ratio = float(np.nanmean(var_fine[bulk])) / float(np.nanmean(var_coarse[bulk]))
+        if ratio > 0 and math.isfinite(ratio):
+            alpha = float(np.clip(math.log(ratio) / math.log(k_fine / k_coarse), *ALPHA_RANGE))
+    return np.sqrt(var_fine * (1.0 / k_fine) ** alpha), alpha
+
+
 def structural_error(particles: Dump, snapshots: np.ndarray, kernel: Kernel, z_grid: np.ndarray, d: float,
                      bulk: np.ndarray) -> tuple[np.ndarray, float, tuple[int, int]]:
     """The cell profile's structural error on ``z_grid``, the exponent ``alpha`` used and the fine
@@ -71,11 +85,40 @@ def structural_error(particles: Dump, snapshots: np.ndarray, kernel: Kernel, z_g
         return np.full(z_grid.size, np.nan), math.nan, fine
     var_fine = patch_profiles(particles, snapshots, kernel, z_grid, fine).var(axis=0, ddof=1)
     coarse = (max(1, fine[0] // 2), max(1, fine[1] // 2))
-    alpha = ALPHA_RANGE[0]
-    if coarse[0] * coarse[1] >= 2 and bulk.any():
-        var_coarse = patch_profiles(particles, snapshots, kernel, z_grid, coarse).var(axis=0, ddof=1)
-        ratio = float(np.mean(var_fine[bulk])) / float(np.mean(var_coarse[bulk]))
-        area_ratio = k_fine / (coarse[0] * coarse[1])
-        if ratio > 0 and math.isfinite(ratio):
-            alpha = float(np.clip(math.log(ratio) / math.log(area_ratio), *ALPHA_RANGE))
-    return np.sqrt(var_fine * (1.0 / k_fine) ** alpha), alpha, fine
+    k_coarse = coarse[0] * coarse[1]
+    var_coarse = patch_profiles(particles, snapshots, kernel, z_grid, coarse).var(axis=0, ddof=1) if k_coarse >= 2 else None
+    err, alpha = _extrapolate(var_fine, var_coarse, k_fine, k_coarse, bulk)
+    return err, alpha, fine
+
+
+def mean_field_error(x: np.ndarray, y: np.ndarray, z: np.ndarray, weight: np.ndarray, value: np.ndarray,
+                     box: np.ndarray, kernel: Kernel, z_grid: np.ndarray, d: float,
+                     bulk: np.ndarray) -> tuple[np.ndarray, float, tuple[int, int]]:
+    """The same for a weighted-mean field ``u(z) = sum w v phi / sum w phi`` of per-grain values
+    ``value`` (grains at ``x``, ``y``, ``z`` in m, weights ``weight``, e.g. masses): each patch's
+    profile is its own weighted mean. NaN where a patch has no weight (its variance skips it)."""
+    lx, ly = float(box[0, 1] - box[0, 0]), float(box[1, 1] - box[1, 0])
+    phi = kernel.pdf(z_grid[None, :] - z[:, None]) * weight[:, None]
+
+    def variance(counts: tuple[int, int]) -> np.ndarray:
+        nx, ny = counts
+        kx = np.clip(((x - box[0, 0]) / lx * nx).astype(int), 0, nx - 1)
+        ky = np.clip(((y - box[1, 0]) / ly * ny).astype(int), 0, ny - 1)
+        num, den = np.zeros((nx * ny, z_grid.size)), np.zeros((nx * ny, z_grid.size))
+        np.add.at(num, kx * ny + ky, phi * value[:, None])
+        np.add.at(den, kx * ny + ky, phi)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            profiles = np.where(den > 0, num / np.where(den > 0, den, 1.0), np.nan)
+        counted = np.isfinite(profiles).sum(axis=0)
+        mean = np.nanmean(np.where(counted > 0, profiles, 0.0), axis=0)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return np.where(counted > 1, np.nansum((profiles - mean) ** 2, axis=0) / np.maximum(counted - 1, 1), np.nan)
+
+    fine = patch_counts(lx, ly, d)
+    k_fine = fine[0] * fine[1]
+    if k_fine < 2:
+        return np.full(z_grid.size, np.nan), math.nan, fine
+    coarse = (max(1, fine[0] // 2), max(1, fine[1] // 2))
+    k_coarse = coarse[0] * coarse[1]
+    err, alpha = _extrapolate(variance(fine), variance(coarse) if k_coarse >= 2 else None, k_fine, k_coarse, bulk)
+    return err, alpha, fine

@@ -53,3 +53,24 @@ def test_one_patch_gives_no_structural_error(rng: np.random.Generator) -> None:
     err, _, counts = structure.structural_error(dump, np.arange(len(dump)), Kernel("gaussian", D), np.array([0.01]),
                                                 5 * D, np.ones(1, dtype=bool))
     assert counts == (1, 1) and np.isnan(err).all()
+
+
+def test_mean_field_error_predicts_the_replica_scatter_of_a_weighted_mean(rng: np.random.Generator) -> None:
+    # Per-grain creep speeds with independent scatter (0.01 m/s about a mean): the error of the
+    # cell's kernel-weighted mean profile, from its patches, matches the scatter over replicas.
+    kernel = Kernel("gaussian", 0.5 * D)
+    z_grid = np.linspace(4 * D, 16 * D, 25)
+    box = np.array([[0.0, L], [0.0, L], [-D, 21 * D]])
+    cells, errors = [], []
+    for _ in range(40):
+        n = 1500
+        x, y, z = rng.uniform(0, L, n), rng.uniform(0, L, n), rng.uniform(0, 20 * D, n)
+        m = rng.uniform(0.5, 1.5, n)
+        v = 0.001 + 0.01 * rng.normal(size=n)
+        phi = kernel.pdf(z_grid[None, :] - z[:, None]) * m[:, None]
+        cells.append((phi * v[:, None]).sum(axis=0) / phi.sum(axis=0))
+        err, _, counts = structure.mean_field_error(x, y, z, m, v, box, kernel, z_grid, D, np.ones(z_grid.size, bool))
+        assert counts == (4, 4)
+        errors.append(err)
+    ratio = np.mean(np.array(cells).var(axis=0, ddof=1)) / np.mean(np.array(errors) ** 2)
+    assert 0.7 < ratio < 1.4
