@@ -31,8 +31,9 @@ from pathlib import Path
 PACKAGES = ("slurm-wlm", "munge", "libpmix-dev")
 #: Where SLURM's commands look for the configuration when SLURM_CONF is unset.
 DEFAULT_CONF = Path("/etc/slurm/slurm.conf")
-#: Seconds SLURM keeps a finished job visible to squeue (the plugin polls every ~40 s at first).
-MIN_JOB_AGE = 600
+#: Seconds SLURM keeps a finished job visible to squeue: longer than the whole test, so that the
+#: plugin always finds its jobs and the test can count them at the end.
+MIN_JOB_AGE = 3600
 
 
 class ClusterError(RuntimeError):
