@@ -128,22 +128,24 @@ def test_wall_forces_balance_load_and_weight(reduced_results: Path) -> None:
 
 
 def test_two_mpi_ranks_conserve_grains_and_agree_with_one(reduced_results: Path, tmp_path: Path) -> None:
-    """The same rheometer run on 2 MPI ranks: same grains, wall shear stress within the noise."""
+    """The reduced workflow's rheometer run (2 MPI ranks, config/ci.yaml) against the same run on
+    one rank: same grains, wall shear stress within the noise."""
     config = reduced_results / "config.effective.json"
     # The fastest rheometer run: the largest inertial number needs the fewest steps.
-    one = max((r for r in run_records(reduced_results) if r["case"] == "rheometer"), key=lambda r: run_state(r["run"])[0])
-    out = tmp_path / "mpi2"
+    two = max((r for r in run_records(reduced_results) if r["case"] == "rheometer"), key=lambda r: run_state(r["run"])[0])
+    assert two["mpi_ranks"] == 2
+    assert "2 procs" in (two["_dir"] / "logs" / "production_000.log").read_text()
+    # Domains split the periodic plane, not z (mostly empty space above the bed: one rank got every grain).
+    assert "2 by 1 by 1 MPI processor grid" in (two["_dir"] / "logs" / "production_000.log").read_text()
+    out = tmp_path / "mpi1"
     cmd = [sys.executable, "-m", "pipeline.dem", "--config", str(config), "--case", "rheometer",
-           "--run", one["run"], "--out", str(out), "--mpi-launcher", "mpirun", "--mpi-ranks", "2"]
+           "--run", two["run"], "--out", str(out), "--mpi-launcher", "none", "--mpi-ranks", "1"]
     proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
     assert proc.returncode == 0, proc.stderr[-3000:]
-    two = json.loads((out / "run.json").read_text()) | {"_dir": out}
-    assert two["mpi_ranks"] == 2
-    assert "2 procs" in (out / "logs" / "production_000.log").read_text()
-    # Domains split the periodic plane, not z (mostly empty space above the bed: one rank got every grain).
-    assert "2 by 1 by 1 MPI processor grid" in (out / "logs" / "production_000.log").read_text()
+    one = json.loads((out / "run.json").read_text()) | {"_dir": out}
+    assert one["mpi_ranks"] == 1
     for dump in two["particle_dumps"]:
-        text = (out / dump).read_text().splitlines()
+        text = (two["_dir"] / dump).read_text().splitlines()
         counts = {int(text[i + 1]) for i, line in enumerate(text) if line == "ITEM: NUMBER OF ATOMS"}
         assert counts == {two["particle_count"]}
     mu = []
