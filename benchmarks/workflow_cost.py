@@ -87,7 +87,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     costs = {name: run_costs(root) for name, root in (("fixed", args.fixed), ("targeted", args.targeted))}
     sums = {name: c.groupby("case")[["particle_steps", "core_seconds"]].sum() for name, c in costs.items()}
-    by_case = sums["fixed"].join(sums["targeted"], how="outer", lsuffix="_fixed", rsuffix="_targeted")
+    by_case = sums["fixed"].merge(sums["targeted"], left_index=True, right_index=True, how="outer",
+                                  suffixes=("_fixed", "_targeted"))
     by_case["steps_ratio"] = by_case["particle_steps_targeted"] / by_case["particle_steps_fixed"]
     by_case["seconds_ratio"] = by_case["core_seconds_targeted"] / by_case["core_seconds_fixed"]
     pd.set_option("display.width", 200)
