@@ -21,6 +21,11 @@ from pathlib import Path
 
 import pandas as pd
 
+REPO = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(REPO))
+
+from pipeline.dem.planar_run import settled_timestep  # noqa: E402
+
 #: The cases of the goal (issue 19): rheometer, shear_gravity's replicas, intruder.
 GOAL_CASES = ("rheometer", "shear_gravity", "intruder")
 
@@ -29,11 +34,7 @@ def fill_steps(run_dir: Path, state: dict) -> int:
     """Steps of the fill: recorded since issue 19, else the settled snapshot's time step."""
     if "steps" in state.get("fill", {}):
         return int(state["fill"]["steps"])
-    with (run_dir / "settled.dump").open() as f:
-        for line in f:
-            if line.startswith("ITEM: TIMESTEP"):
-                return int(next(f).split()[0])
-    raise SystemExit(f"{run_dir / 'settled.dump'}: no time step")
+    return settled_timestep(run_dir / "settled.dump")
 
 
 def stage_of(case: str, run: str) -> str:

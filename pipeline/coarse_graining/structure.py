@@ -39,6 +39,15 @@ def patch_counts(lx: float, ly: float, d: float, side_over_d: float = PATCH_OVER
     return (max(1, int(lx / (side_over_d * d) + 1e-9)), max(1, int(ly / (side_over_d * d) + 1e-9)))
 
 
+def _patch_index(x: np.ndarray, y: np.ndarray, box: np.ndarray, counts: tuple[int, int]) -> np.ndarray:
+    """Patch number of each grain at (x, y) (m) among ``counts = (nx, ny)`` equal patches of the box."""
+    nx, ny = counts
+    lx, ly = float(box[0, 1] - box[0, 0]), float(box[1, 1] - box[1, 0])
+    kx = np.clip(((x - box[0, 0]) / lx * nx).astype(int), 0, nx - 1)
+    ky = np.clip(((y - box[1, 0]) / ly * ny).astype(int), 0, ny - 1)
+    return kx * ny + ky
+
+
 def patch_profiles(particles: Dump, snapshots: np.ndarray, kernel: Kernel, z_grid: np.ndarray,
                    counts: tuple[int, int], body_types: tuple[int, ...] = (1,)) -> np.ndarray:
     """Time-averaged solid-fraction profiles of ``counts = (nx, ny)`` patches, shape (patches, z)."""
@@ -51,11 +60,9 @@ def patch_profiles(particles: Dump, snapshots: np.ndarray, kernel: Kernel, z_gri
     for s in snapshots:
         rows = particles.rows(int(s))
         rows = rows[np.isin(rows[:, i_t], body_types)]
-        kx = np.clip(((rows[:, i_x] - box[0, 0]) / lx * nx).astype(int), 0, nx - 1)
-        ky = np.clip(((rows[:, i_y] - box[1, 0]) / ly * ny).astype(int), 0, ny - 1)
         volume = 4.0 / 3.0 * math.pi * rows[:, i_r] ** 3
         weight = kernel.pdf(z_grid[None, :] - rows[:, i_z, None]) * volume[:, None]
-        np.add.at(total, kx * ny + ky, weight)
+        np.add.at(total, _patch_index(rows[:, i_x], rows[:, i_y], box, counts), weight)
     return total / (len(snapshots) * area)
 
 
@@ -101,12 +108,10 @@ def mean_field_error(x: np.ndarray, y: np.ndarray, z: np.ndarray, weight: np.nda
     phi = kernel.pdf(z_grid[None, :] - z[:, None]) * weight[:, None]
 
     def variance(counts: tuple[int, int]) -> np.ndarray:
-        nx, ny = counts
-        kx = np.clip(((x - box[0, 0]) / lx * nx).astype(int), 0, nx - 1)
-        ky = np.clip(((y - box[1, 0]) / ly * ny).astype(int), 0, ny - 1)
-        num, den = np.zeros((nx * ny, z_grid.size)), np.zeros((nx * ny, z_grid.size))
-        np.add.at(num, kx * ny + ky, phi * value[:, None])
-        np.add.at(den, kx * ny + ky, phi)
+        k = _patch_index(x, y, box, counts)
+        num, den = np.zeros((counts[0] * counts[1], z_grid.size)), np.zeros((counts[0] * counts[1], z_grid.size))
+        np.add.at(num, k, phi * value[:, None])
+        np.add.at(den, k, phi)
         with np.errstate(invalid="ignore", divide="ignore"):
             profiles = np.where(den > 0, num / np.where(den > 0, den, 1.0), np.nan)
         counted = np.isfinite(profiles).sum(axis=0)
