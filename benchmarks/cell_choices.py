@@ -37,7 +37,10 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--root", type=Path, required=True, help="output root of a finished workflow")
     args = parser.parse_args(argv)
-    params = json.loads((args.root / "calibration" / "params.json").read_text())
+    params_path = args.root / "calibration" / "params.json"
+    if not params_path.is_file():
+        raise SystemExit(f"{params_path}: not found: --root must be the output root of a finished workflow")
+    params = json.loads(params_path.read_text())
     r = normal_stress_ratio(params)
     rows = []
     for folder in sorted((args.root / "fields").iterdir()):
