@@ -80,6 +80,18 @@ def _check_consistency(config: dict[str, Any], source: str) -> None:
             f"{source}: dem.steady_window_chunks ({dem['steady_window_chunks']}) exceeds "
             f"dem.max_shear_chunks ({dem['max_shear_chunks']})"
         )
+    for name, case in config["cases"].items():
+        if "precision" in case and "precision" not in dem:
+            raise ConfigError(f"{source}: cases.{name}.precision: its targets replace dem.precision's, and "
+                              "dem.precision is not set (a fixed-length production has no targets)")
+        cap = case.get("production_strain", dem["production_strain"])
+        if "precision" in dem and dem["precision"]["min_production_strain"] > cap:
+            raise ConfigError(f"{source}: cases.{name}.production_strain ({cap}) is below "
+                              f"dem.precision.min_production_strain ({dem['precision']['min_production_strain']})")
+        targets = case.get("precision", {})
+        if ("log_speed" in targets) != ("log_speed_depth_over_d" in targets):
+            raise ConfigError(f"{source}: cases.{name}.precision: log_speed and log_speed_depth_over_d go together "
+                              "(the log-speed error is held down to that depth)")
     precision = dem.get("precision")
     if precision is not None:
         if ("log_speed" in precision) != ("log_speed_depth_over_d" in precision):
@@ -155,6 +167,19 @@ def load_config(path: str | Path) -> dict[str, Any]:
     if not isinstance(config, dict):
         raise ConfigError(f"{path}:1: top level must be a mapping of keys, found {type(config).__name__}")
     return validate_config(config, str(path))
+
+
+def case_production(dem: dict[str, Any], case: dict[str, Any]) -> dict[str, Any]:
+    """The ``dem`` settings one case's runs produce with: its own ``precision`` targets (in place of
+    ``dem.precision``'s, with ``dem.precision.min_production_strain``) and ``production_strain``
+    cap where the case names them. ``snapshot_strain`` keeps the strain ``dem.snapshots`` are
+    spread over (``dem.production_strain``), so a longer cap does not thin the dumps."""
+    out = dict(dem) | {"snapshot_strain": dem["production_strain"]}
+    if "precision" in case:
+        out["precision"] = {"min_production_strain": dem["precision"]["min_production_strain"]} | dict(case["precision"])
+    if "production_strain" in case:
+        out["production_strain"] = case["production_strain"]
+    return out
 
 
 def rheometer_states(case: dict[str, Any]) -> list[tuple[float, float]]:

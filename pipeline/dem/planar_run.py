@@ -35,7 +35,7 @@ import pandas as pd
 
 from pipeline.dem import liggghts_render as render
 from pipeline.dem import precision
-from pipeline.common.config import derived_seed, liggghts_seed, mean_grain_volume, run_case, run_physics, run_state, size_classes
+from pipeline.common.config import case_production, derived_seed, liggghts_seed, mean_grain_volume, run_case, run_physics, run_state, size_classes
 from pipeline.dem.contact_scaling import ContactDesign, design_contacts
 from pipeline.common.formats import RUN_FORMAT_VERSION
 from pipeline.dem.liggghts_log import DEMRunError, check_run, printed_value
@@ -166,7 +166,8 @@ class PlanarShearRun:
         self.run_id = run_id
         self.case = run_case(config["cases"][case_name], run_id)
         self.mat = config["material"]
-        self.dem = config["dem"]
+        # The case's own production targets and cap, where it names them.
+        self.dem = case_production(config["dem"], self.case)
         self.run_dir = run_dir
         self.label = f"DEM run {case_name}/{run_id}"
         self.design = contact_design(config)
@@ -333,7 +334,8 @@ class PlanarShearRun:
         series_every = 10 * nevery
         chunk_steps = series_every * samples
         n_prod = max(1, int(math.ceil(self.dem["production_strain"] / self.dem["chunk_strain"])))
-        per_chunk = max(1, int(math.ceil(self.dem["snapshots"] / n_prod)))
+        # dem.snapshots per dem.production_strain, whatever this case's cap.
+        per_chunk = max(1, int(math.ceil(self.dem["snapshots"] / max(1, int(math.ceil(self.dem["snapshot_strain"] / self.dem["chunk_strain"]))))))
         dump_every = max(1, chunk_steps // per_chunk)
         while chunk_steps % dump_every:
             dump_every -= 1
@@ -523,7 +525,7 @@ class PlanarShearRun:
             return stop | {"reason": "every precision target met"}
         if len(produced) >= plan["production_chunks"]:
             unmet = sorted(name for name, ok in measured["met"].items() if not ok)
-            return stop | {"reason": f"strain cap dem.production_strain reached with {', '.join(unmet) or 'no target'} unmet"}
+            return stop | {"reason": f"strain cap production_strain reached with {', '.join(unmet) or 'no target'} unmet"}
         print(f"{self.label}: precision after {len(produced)} production chunks: "
               + ", ".join(f"{k} {'unresolved' if v is None else format(v, '.3g')} (target {stop['targets'][k]:g})"
                           for k, v in measured["reached"].items())

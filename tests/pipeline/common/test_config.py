@@ -8,6 +8,7 @@ import yaml
 
 from pipeline.common.config import (
     ConfigError,
+    case_production,
     _is_prime,
     dem_runs,
     derived_seed,
@@ -97,3 +98,35 @@ def test_numbers_in_exponent_form_read_as_numbers(tmp_path) -> None:
     from pipeline.common.config import _Loader
 
     assert _yaml.load("a: 1e-05\nb: 2.5E+3\nc: 1_000\nd: e5", Loader=_Loader) == {"a": 1e-05, "b": 2500.0, "c": 1000, "d": "e5"}
+
+
+def test_a_case_produces_with_its_own_targets_and_cap(config: dict) -> None:
+    own = copy.deepcopy(config)
+    own["cases"]["rheometer"] |= {"precision": {"mu": 0.004}, "production_strain": 3.0}
+    validate_config(own, "own.yaml")
+    dem = own["dem"]
+    rheometer = case_production(dem, own["cases"]["rheometer"])
+    # Its targets replace the global set (no u_x, nu target left), the minimum strain is global.
+    assert rheometer["precision"] == {"min_production_strain": dem["precision"]["min_production_strain"], "mu": 0.004}
+    assert rheometer["production_strain"] == 3.0
+    # The dumps stay as dense in strain as every other case's.
+    assert rheometer["snapshot_strain"] == dem["production_strain"]
+    other = case_production(dem, own["cases"]["shear_gravity"])
+    assert other["precision"] == dem["precision"] and other["production_strain"] == dem["production_strain"]
+
+
+@pytest.mark.parametrize(
+    ("mutate", "message"),
+    [
+        (lambda c: c["dem"].pop("precision"), "cases.rheometer.precision: its targets replace dem.precision's"),
+        (lambda c: c["cases"]["rheometer"].__setitem__("production_strain", 0.1), "cases.rheometer.production_strain (0.1) is below"),
+        (lambda c: c["cases"]["rheometer"]["precision"].__setitem__("log_speed", 0.1), "cases.rheometer.precision: log_speed and"),
+    ],
+)
+def test_case_targets_that_cannot_work_are_refused(config: dict, mutate, message: str) -> None:
+    bad = copy.deepcopy(config)
+    bad["cases"]["rheometer"]["precision"] = {"mu": 0.004}
+    mutate(bad)
+    with pytest.raises(ConfigError) as err:
+        validate_config(bad, "bad.yaml")
+    assert message in str(err.value)
