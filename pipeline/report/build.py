@@ -599,9 +599,11 @@ def build_report(config: dict[str, Any], figure_dir: Path | None = None) -> str:
         "<h3>Coarse-graining checks</h3><p class='note'>Momentum balance residuals in the bulk and coarse-grained "
         "stress at the walls against the wall forces LIGGGHTS reports (fractions of p).</p>",
         table_html(fields_checks_table(root, config)),
-        "<h3>Error bars against the replica scatter</h3><p class='note'>chi2 = mean of (a - b)^2 / (err_a^2 + "
-        "err_b^2) over the interior points and replica pairs: 1 when the stated errors hold (chi2_err: its own "
-        "standard error).</p>",
+        "<h3>Error bars against the replica scatter</h3><p class='note'>chi2 = mean over the interior points of "
+        "sum_r (x_r - xbar)^2 / err_r^2 / (n - 1), xbar the replicas' inverse-variance mean: 1 when the stated "
+        "errors hold. Its degrees of freedom count the independent points from the residuals' correlation length "
+        "along z (correlation_points); chi2_err = sqrt(2 / dof), p_value the chance of a departure from 1 at least "
+        "this large if the errors hold.</p>",
         table_html(pd.read_csv(root / "validation" / "error_check.csv")) if (root / "validation" / "error_check.csv").exists() else "",
         "<h2>Provenance</h2>",
         table_html(pd.DataFrame(sorted(software_versions().items()), columns=["software", "version"])),

@@ -1,6 +1,8 @@
 """Replica scatter against stated errors (pipeline.scoring.error_check) on replicas of known noise."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import xarray as xr
 
@@ -22,4 +24,33 @@ def test_right_errors_give_chi2_one_and_understated_ones_do_not(rng) -> None:
     assert abs(good["chi2"] - 1.0) < 3 * good["chi2_err"]
     low = replica_chi2(replicas(rng, 0.005, 0.01), "nu")
     assert low["chi2"] > 1.0 + 3 * low["chi2_err"]  # errors half the truth: chi2 about 4
-    assert good["pairs"] == 6
+    assert good["pairs"] == 6 and good["replicas"] == 4
+
+
+def smooth_replicas(rng, stated: float, true: float, length: int, n: int = 3) -> list[xr.Dataset]:
+    """Replicas whose noise is correlated over ``length`` points along z (a moving average)."""
+    z = np.linspace(0.0, 0.04, 401)
+    out = []
+    for _ in range(n):
+        white = rng.standard_normal(z.size + length)
+        noise = np.convolve(white, np.ones(length) / math.sqrt(length), mode="valid")[:z.size]
+        ds = xr.Dataset({"nu": ("z", 0.6 + true * noise), "nu_err": ("z", np.full(z.size, stated))},
+                        coords={"z": z}, attrs={"d": 0.002, "z_bottom_wall": 0.0, "z_top_wall": 0.04})
+        out.append(ds)
+    return out
+
+
+def test_correlated_profiles_count_fewer_independent_points(rng) -> None:
+    # Noise correlated over 20 points: about a twentieth of the points are independent, so the
+    # chi2's own error is about sqrt(20) times that of white noise, and right errors still give
+    # a chi2 within it.
+    results = [replica_chi2(smooth_replicas(rng, 0.01, 0.01, 20), "nu") for _ in range(40)]
+    points = results[0]["points"]
+    independent = np.array([r["dof"] / (r["replicas"] - 1) for r in results])
+    assert 0.5 * points / 20 < np.median(independent) < 2.0 * points / 20
+    inside = np.mean([abs(r["chi2"] - 1.0) < 2.0 * r["chi2_err"] for r in results])
+    assert inside > 0.8  # about 95 % for a Gaussian chi2; the tau estimate's own noise widens it
+    # The p-value of right errors is not small; of errors at a third of the truth it is.
+    assert np.median([r["p_value"] for r in results]) > 0.2
+    low = replica_chi2(smooth_replicas(rng, 0.0033, 0.01, 20), "nu")
+    assert low["chi2"] > 4.0 and low["p_value"] < 1e-3
