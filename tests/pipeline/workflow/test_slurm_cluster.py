@@ -12,6 +12,10 @@ What it shows:
 - a DEM job killed by SLURM (``scancel`` while it runs a chunk) fails loudly, keeps its
   committed chunks, and the workflow's retry (profile ``retries``) completes it from there: its
   fill and early chunks are not run again.
+LIGGGHTS runs through SLURM for four DEM runs (:data:`THROUGH_SLURM`); the others are the local
+reduced run's folders, copied in before the start (the dry run checks that exactly the four are
+left to do), so the suite does not pay the reduced DEM twice. Every rule after the DEM (dump
+stores, fields, calibration, models, scores) runs through SLURM for every run.
 Where SLURM cannot be started here (not root, packages unavailable) the test fails with the
 reason; it never skips.
 """
@@ -20,6 +24,7 @@ from __future__ import annotations
 import json
 import math
 import re
+import shutil
 import subprocess
 import sys
 import threading
@@ -39,6 +44,12 @@ PROFILE = REPO / "profiles" / "slurm"
 RANKS = 2
 #: The DEM run the test cancels: the longest of the reduced set, so it is caught inside a chunk.
 CANCELLED = ("shear_gravity", "r1")
+#: The DEM runs LIGGGHTS computes through SLURM: the cancelled one, an uninterrupted one of the
+#: same case (its dumps are compared byte for byte), an intruder run (the other LIGGGHTS input)
+#: and a rheometer state. Every other DEM run's folder is the local reduced run's, copied before
+#: the workflow starts (so the DEM is not paid twice in the suite); every rule downstream of the
+#: DEM, the dump stores included, runs through SLURM for all runs.
+THROUGH_SLURM = (CANCELLED, ("shear_gravity", "r2"), ("intruder", "D4-r1"), ("rheometer", "I0.2-P200-r1"))
 
 
 def slurm_command(out: Path) -> list[str]:
@@ -61,6 +72,33 @@ def slurm_command(out: Path) -> list[str]:
         # cases) add jobs but nothing this test compares.
         str(out / "scores.csv"),
     ]
+
+
+def planned_dem_jobs(out: Path, env: dict) -> set[tuple[str, str]]:
+    """The DEM jobs a dry run of the SLURM command plans (it also writes the per-run configs
+    into ``out``, as the real run will, unchanged)."""
+    proc = subprocess.run([*slurm_command(out), "--dry-run", "--printshellcmds"], cwd=REPO, env=env,
+                          capture_output=True, text=True, check=False, timeout=600)
+    if proc.returncode != 0:
+        pytest.fail(f"dry run of the SLURM workflow failed:\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}")
+    found = re.findall(r"python -m pipeline\.dem --config \S+ --case (\S+) --run (\S+)", proc.stdout + proc.stderr)
+    return set(found)
+
+
+def seed_dem_runs(local: Path, out: Path, env: dict) -> None:
+    """Copy the local reduced run's DEM folders, all but :data:`THROUGH_SLURM`, into ``out``
+    (without their dump stores, which the workflow rebuilds), newer than the per-run configs the
+    workflow writes, so Snakemake takes them as done; check that exactly the others are planned."""
+    planned = planned_dem_jobs(out, env)
+    for run_json in sorted((local / "dem").glob("*/*/run.json")):
+        case, run = run_json.parent.parent.name, run_json.parent.name
+        if (case, run) in THROUGH_SLURM:
+            continue
+        target = out / "dem" / case / run
+        shutil.copytree(run_json.parent, target, ignore=shutil.ignore_patterns("dumps.nc"))
+        (target / "run.json").touch()
+    left = planned_dem_jobs(out, env)
+    assert left == set(THROUGH_SLURM), f"planned before seeding {sorted(planned)}, after {sorted(left)}"
 
 
 def cancel_mid_chunk(cluster: Cluster, run_dir: Path, seen: dict, timeout: float = 900.0) -> None:
@@ -86,10 +124,11 @@ def cancel_mid_chunk(cluster: Cluster, run_dir: Path, seen: dict, timeout: float
 
 
 @pytest.fixture(scope="module")
-def slurm_run(tmp_path_factory: pytest.TempPathFactory) -> dict:
+def slurm_run(tmp_path_factory: pytest.TempPathFactory, reduced_results: Path) -> dict:
     base = tmp_path_factory.mktemp("slurm")
     out = base / "results"
     with local_cluster(base / "cluster") as cluster:
+        seed_dem_runs(reduced_results, out, cluster.env)
         seen: dict = {}
         watcher = threading.Thread(target=cancel_mid_chunk, args=(cluster, out / "dem" / CANCELLED[0] / CANCELLED[1], seen),
                                    daemon=True)
@@ -122,8 +161,7 @@ def test_jobs_ran_as_slurm_jobs(slurm_run: dict) -> None:
 
 
 def test_dem_ran_on_the_ranks_the_profile_asked_for(slurm_run: dict) -> None:
-    records = sorted((slurm_run["out"] / "dem").glob("*/*/run.json"))
-    assert records
+    records = [slurm_run["out"] / "dem" / case / run / "run.json" for case, run in THROUGH_SLURM]
     for path in records:
         run = json.loads(path.read_text())
         assert run["mpi_ranks"] == RANKS and run["mpi_launcher"] == "srun", path
