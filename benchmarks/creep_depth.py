@@ -32,7 +32,7 @@ from pipeline.coarse_graining.fields import load_tables, settings, steady_snapsh
 from pipeline.coarse_graining.field_checks import wall_geometry  # noqa: E402
 from pipeline.coarse_graining.kernels import Kernel  # noqa: E402
 from pipeline.common.config import load_config  # noqa: E402
-from pipeline.common.observables import decades_resolved  # noqa: E402
+from pipeline.common.observables import decades_resolved, replica_mean  # noqa: E402
 from pipeline.dumps.store import read_run_json  # noqa: E402
 from pipeline.scoring.scores import WALL_MARGIN_OVER_D  # noqa: E402
 
@@ -66,7 +66,7 @@ def window_profiles(run_dir: Path, opts: dict, fraction: float) -> dict:
             "strain": strain, "production_core_s": seconds, "d": d}
 
 
-def replica_mean(profiles: list[dict]) -> tuple[float, float]:
+def replica_mean_decades(profiles: list[dict]) -> tuple[float, float]:
     """Decades resolved by the replicas' mean, aligned by depth below the top wall."""
     depth = profiles[0]["depth"]
     us, errs = [], []
@@ -74,10 +74,8 @@ def replica_mean(profiles: list[dict]) -> tuple[float, float]:
         order = np.argsort(p["depth"])
         us.append(np.interp(depth, p["depth"][order], p["u"][order], left=np.nan, right=np.nan))
         errs.append(np.interp(depth, p["depth"][order], p["err"][order], left=np.nan, right=np.nan))
-    us, errs = np.array(us), np.array(errs)
-    n = len(profiles)
-    err = np.fmax(np.sqrt(np.sum(errs**2, axis=0)) / n, us.std(axis=0, ddof=1) / math.sqrt(n))
-    return decades_resolved(us.mean(axis=0), err, 1.0)
+    mean, err = replica_mean(np.array(us), np.array(errs))
+    return decades_resolved(mean, err, 1.0)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -102,7 +100,7 @@ def main(argv: list[str] | None = None) -> int:
             decades, slowest = decades_resolved(p["u"], p["err"], 1.0)
             rows.append({"run": r.name, "fraction": fraction, "strain": p["strain"], "decades": decades,
                          "slowest_over_v": slowest, "core_s_per_strain": rate[r.name]})
-        decades, slowest = replica_mean(profiles)
+        decades, slowest = replica_mean_decades(profiles)
         rows.append({"run": f"mean of {len(runs)}", "fraction": fraction,
                      "strain": float(np.mean([p["strain"] for p in profiles])), "decades": decades,
                      "slowest_over_v": slowest,

@@ -65,3 +65,12 @@ def decades_resolved(u: np.ndarray, err: np.ndarray, wall_speed: float) -> tuple
     if math.isnan(slowest):
         return 0.0, float("nan")
     return float(math.log10(u[top] / slowest)), slowest / wall_speed
+
+
+def replica_mean(values: np.ndarray, errors: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Mean of replica profiles (axis 0) and its error: the larger of the combined stated errors
+    and the replicas' scatter over sqrt(n) (replicas differ by more than their stated errors
+    where the packing's structure is frozen, or their random rough walls differ)."""
+    n = values.shape[0]
+    err = np.fmax(np.sqrt(np.sum(errors**2, axis=0)) / n, values.std(axis=0, ddof=1) / math.sqrt(n))
+    return values.mean(axis=0), err

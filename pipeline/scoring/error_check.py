@@ -27,7 +27,7 @@ from scipy import stats
 
 from pipeline.coarse_graining.coarse_grain import integrated_autocorrelation_time
 from pipeline.common import atomic
-from pipeline.common.observables import creep_speed, decades_resolved
+from pipeline.common.observables import creep_speed, decades_resolved, replica_mean
 from pipeline.scoring.scores import align_replicas, interior
 
 FIELDS = ("u_x", "u_x_disp", "nu", "sigma_zz", "sigma_xz", "mu")
@@ -123,10 +123,8 @@ def replica_mean_resolution(paths: list[Path]) -> list[dict[str, object]]:
                 order = np.argsort(own)
                 us.append(np.interp(depth, own[order], u[order], left=np.nan, right=np.nan))
                 errs.append(np.interp(depth, own[order], err[order], left=np.nan, right=np.nan))
-            us, errs = np.array(us), np.array(errs)
             n = len(files)
-            mean = us.mean(axis=0)
-            err = np.fmax(np.sqrt(np.sum(errs**2, axis=0)) / n, us.std(axis=0, ddof=1) / math.sqrt(n))
+            mean, err = replica_mean(np.array(us), np.array(errs))
             # Ordered from the bottom up like a profile: depth decreasing.
             decades, slowest = decades_resolved(mean[::-1], err[::-1], float(first.attrs["wall_speed"]))
             rows.append({"case": case, "run": f"mean of {n} replicas", "decades_best": decades, "slowest_over_v_best": slowest})

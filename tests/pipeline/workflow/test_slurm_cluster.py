@@ -90,12 +90,9 @@ def seed_dem_runs(local: Path, out: Path, env: dict) -> None:
     (without their dump stores, which the workflow rebuilds), newer than the per-run configs the
     workflow writes, so Snakemake takes them as done; check that exactly the others are planned."""
     planned = planned_dem_jobs(out, env)
-    for run_json in sorted((local / "dem").glob("*/*/run.json")):
-        case, run = run_json.parent.parent.name, run_json.parent.name
-        if (case, run) in THROUGH_SLURM:
-            continue
+    for case, run in sorted(planned - set(THROUGH_SLURM)):
         target = out / "dem" / case / run
-        shutil.copytree(run_json.parent, target, ignore=shutil.ignore_patterns("dumps.nc"))
+        shutil.copytree(local / "dem" / case / run, target, ignore=shutil.ignore_patterns("dumps.nc"))
         (target / "run.json").touch()
     left = planned_dem_jobs(out, env)
     assert left == set(THROUGH_SLURM), f"planned before seeding {sorted(planned)}, after {sorted(left)}"
