@@ -57,3 +57,25 @@ def test_targets_of_the_geometry_only(rng: np.random.Generator) -> None:
 def test_too_few_chunks_meet_nothing(rng: np.random.Generator) -> None:
     out = precision.measure(_means(rng, 2, 1e-4), 0.002, None, {"u_x_over_v": 1.0}, gravity=True)
     assert out == {"blocks": 2, "reached": {}, "met": {}, "all_met": False}
+
+
+def test_a_longer_case_cap_keeps_the_dumps_as_dense_in_strain(tmp_path) -> None:
+    """cases.<case>.production_strain raises the cap, not the spacing of the snapshots: the
+    chunk plan of a rheometer run with a doubled cap has twice the production chunks and the
+    same dump interval."""
+    from pipeline.common.config import load_config
+    from pipeline.dem.planar_run import PlanarShearRun
+
+    config = load_config("config/ci.yaml")
+    run_id = "I0.07-P200-r1"
+    plans = []
+    for cap in (None, 2.0 * config["dem"]["production_strain"]):
+        case = dict(config["cases"]["rheometer"])
+        if cap is not None:
+            case["production_strain"] = cap
+        run = PlanarShearRun(config | {"cases": {"rheometer": case}}, "rheometer", run_id, tmp_path)
+        run.state = {"fill": {"settled_gap": 0.03}}
+        plans.append(run._chunk_plan())
+    default, longer = plans
+    assert longer["production_chunks"] == 2 * default["production_chunks"]
+    assert longer["dump_every"] == default["dump_every"] and longer["chunk_steps"] == default["chunk_steps"]
