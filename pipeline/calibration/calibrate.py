@@ -265,14 +265,22 @@ def microscopic_fluidity_fit(states: list[dict[str, Any]], d: float) -> dict[str
 
 def microscopic_fluidity(params: dict[str, Any], nu: np.ndarray, temperature: np.ndarray,
                          temperature_err: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The microscopic fluidity (s-1) and its error from the fields' nu and granular temperature."""
+    """The microscopic fluidity (s-1) and its error from the fields' nu and granular temperature.
+
+    NaN where nu lies outside the rheometer states' range (``nu_range`` of the fit): F(nu) is
+    not measured there, and the creeping zone's nu (0.60-0.62 in the default beds, above the
+    slowest state's 0.594) is exactly where an extrapolated F would decide the comparison.
+    """
     fit = params["microscopic_fluidity"]
     d = float(params["d"])
     c0, c1 = fit["c0"]["value"], fit["c1"]["value"]
+    lo, hi = fit["nu_range"]
+    nu = np.asarray(nu, dtype=float)
     with np.errstate(invalid="ignore", divide="ignore"):
         g = np.sqrt(np.maximum(temperature, 0.0)) / d * np.exp(c0 + c1 * nu)
         err = g * 0.5 * temperature_err / temperature
-    return g, err
+    calibrated = (nu >= lo) & (nu <= hi)
+    return np.where(calibrated, g, np.nan), np.where(calibrated, err, np.nan)
 
 
 def normal_stress_ratio(params: dict[str, Any]) -> float:

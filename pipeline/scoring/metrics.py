@@ -108,11 +108,19 @@ def rmse(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.sqrt(np.mean((np.asarray(a) - np.asarray(b)) ** 2)))
 
 
+def resolved(value: np.ndarray, err: np.ndarray) -> np.ndarray:
+    """True where ``value`` is finite and above ``RESOLVED_SIGMAS`` times its error (a NaN
+    error, or a NaN value such as an undefined microscopic fluidity, is not resolved)."""
+    value, err = np.asarray(value, dtype=float), np.asarray(err, dtype=float)
+    ok = np.isfinite(value) & np.isfinite(err)
+    return np.greater(value, RESOLVED_SIGMAS * np.where(ok, err, 0.0), out=np.zeros(value.shape, dtype=bool), where=ok)
+
+
 def log_rmse_resolved(model: np.ndarray, dem: np.ndarray, dem_err: np.ndarray) -> float:
     """RMS of log10(model / dem) over the points where the DEM value is positive and resolved
     (above ``RESOLVED_SIGMAS`` errors); inf where the model is not positive there."""
     model, dem, dem_err = (np.asarray(a, dtype=float) for a in (model, dem, dem_err))
-    mask = np.isfinite(dem) & (dem > RESOLVED_SIGMAS * np.nan_to_num(dem_err, nan=np.inf))
+    mask = resolved(dem, dem_err)
     if not np.any(mask):
         raise MetricError("no resolved positive DEM points")
     if np.any(~(model[mask] > 0.0)):

@@ -131,8 +131,7 @@ def dem_noise(reps: list[xr.Dataset], variable: str, fn: Callable[..., float], m
         err = b[f"{variable}_err"].values
         if variable in LOG_VARIABLES:
             # Where replica a does not resolve the value, b's point is left out (as unresolved).
-            resolved = a[variable].values > metrics.RESOLVED_SIGMAS * np.nan_to_num(a[f"{variable}_err"].values, nan=np.inf)
-            err = np.where(resolved, err, np.inf)
+            err = np.where(metrics.resolved(a[variable].values, a[f"{variable}_err"].values), err, np.inf)
         try:
             values.append(fn(a[variable].values[mask], b[variable].values[mask], err[mask]))
         except MetricError:
