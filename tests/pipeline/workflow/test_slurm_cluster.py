@@ -66,7 +66,10 @@ def slurm_command(out: Path) -> list[str]:
         "dump_store:mem_mb=2000", "fields:mem_mb=2000", "calibrate:mem_mb=2000", "report:mem_mb=2000",
         "failure_catalogue:runtime=30",
         "--slurm-status-command", "squeue", "--slurm-logdir", str(out / "logs" / "slurm"),
-        "--slurm-init-seconds-before-status-checks", "5", "--slurm-no-account",
+        # A one-node test cluster answers squeue at once: poll every 2 s, not Snakemake's 10 s
+        # (a site keeps the default).
+        "--slurm-init-seconds-before-status-checks", "5", "--seconds-between-status-checks", "2",
+        "--slurm-no-account",
         "--latency-wait", "10", "--retries", "1",
         # Up to the scores: the report and the stability study (which runs its own small DEM
         # cases) add jobs but nothing this test compares.
