@@ -31,7 +31,7 @@ from pipeline.coarse_graining.coarse_grain import profile_grid  # noqa: E402
 from pipeline.coarse_graining.fields import load_tables, settings, steady_snapshots  # noqa: E402
 from pipeline.coarse_graining.field_checks import wall_geometry  # noqa: E402
 from pipeline.coarse_graining.kernels import Kernel  # noqa: E402
-from pipeline.common.config import load_config  # noqa: E402
+from pipeline.common.config import ConfigError, load_config  # noqa: E402
 from pipeline.common.observables import decades_resolved, replica_mean  # noqa: E402
 from pipeline.dumps.store import read_run_json  # noqa: E402
 from pipeline.scoring.scores import WALL_MARGIN_OVER_D  # noqa: E402
@@ -39,43 +39,33 @@ from pipeline.scoring.scores import WALL_MARGIN_OVER_D  # noqa: E402
 FRACTIONS = (0.25, 0.5, 0.75, 1.0)
 
 
-def window_profiles(run_dir: Path, opts: dict, fraction: float) -> dict:
-    """u_x_disp / V, its error / V and depth below the top wall (m) on the first ``fraction`` of
-    the production window, with the window's strain."""
+def run_windows(run_dir: Path, opts: dict) -> list[dict]:
+    """For each of :data:`FRACTIONS`, u_x_disp / V, its error / V and the depth below the top wall
+    (m) inside the wall margin on the first ``fraction`` of the production window, with the
+    window's strain and the run's production core-seconds. The dumps are read once."""
     run = read_run_json(run_dir)
     particles, _ = load_tables(run_dir, run)
-    chosen = steady_snapshots(particles, run)
-    chosen = chosen[:max(3, int(math.ceil(fraction * chosen.size)))]
-    d = float(run["d"])
+    steady = steady_snapshots(particles, run)
+    d, v = float(run["d"]), float(run["wall_speed"])
     kernel = Kernel(opts["kernel"], opts["width_over_d"] * d)
-    walls = wall_geometry(particles, chosen)
-    z = profile_grid(walls.bottom_mean, walls.top_mean, dz=opts["spacing_over_width"] * kernel.width).z
-    times = particles.timesteps[chosen] * float(run["time_step"])
-    u, err_time = displacement_velocity(particles, chosen, times, kernel, z, int(opts["blocks"]))
-    margin = opts["bulk_margin_over_d"] * d
-    bulk = (z >= walls.bottom_mean + margin) & (z <= walls.top_mean - margin)
-    err_structure, _ = displacement_structural_error(particles, chosen, times, kernel, z, d, bulk)
-    v = float(run["wall_speed"])
-    inside = (z >= walls.bottom_mean + WALL_MARGIN_OVER_D * d) & (z <= walls.top_mean - WALL_MARGIN_OVER_D * d)
-    depth = walls.top_mean - z
-    gap = walls.top_mean - walls.bottom_mean
-    strain = v * float(times[-1] - times[0]) / gap
     chunks = json.loads((run_dir / "state.json").read_text())["chunks"]
     seconds = sum(c["wall_seconds"] for c in chunks if c["kind"] == "production") * int(run.get("mpi_ranks", 1))
-    return {"u": u[inside] / v, "err": np.fmax(err_time, err_structure)[inside] / v, "depth": depth[inside],
-            "strain": strain, "production_core_s": seconds, "d": d}
-
-
-def replica_mean_decades(profiles: list[dict]) -> tuple[float, float]:
-    """Decades resolved by the replicas' mean, aligned by depth below the top wall."""
-    depth = profiles[0]["depth"]
-    us, errs = [], []
-    for p in profiles:
-        order = np.argsort(p["depth"])
-        us.append(np.interp(depth, p["depth"][order], p["u"][order], left=np.nan, right=np.nan))
-        errs.append(np.interp(depth, p["depth"][order], p["err"][order], left=np.nan, right=np.nan))
-    mean, err = replica_mean(np.array(us), np.array(errs))
-    return decades_resolved(mean, err, 1.0)
+    out = []
+    for fraction in FRACTIONS:
+        chosen = steady[:max(3, int(math.ceil(fraction * steady.size)))]
+        walls = wall_geometry(particles, chosen)
+        z = profile_grid(walls.bottom_mean, walls.top_mean, dz=opts["spacing_over_width"] * kernel.width).z
+        times = particles.timesteps[chosen] * float(run["time_step"])
+        u, err_time = displacement_velocity(particles, chosen, times, kernel, z, int(opts["blocks"]))
+        margin = opts["bulk_margin_over_d"] * d
+        bulk = (z >= walls.bottom_mean + margin) & (z <= walls.top_mean - margin)
+        err_structure, _ = displacement_structural_error(particles, chosen, times, kernel, z, d, bulk)
+        inside = (z >= walls.bottom_mean + WALL_MARGIN_OVER_D * d) & (z <= walls.top_mean - WALL_MARGIN_OVER_D * d)
+        out.append({"u": u[inside] / v, "err": np.fmax(err_time, err_structure)[inside] / v,
+                    "depth": (walls.top_mean - z)[inside],
+                    "strain": v * float(times[-1] - times[0]) / (walls.top_mean - walls.bottom_mean),
+                    "production_core_s": seconds})
+    return out
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -88,23 +78,28 @@ def main(argv: list[str] | None = None) -> int:
     if not runs:
         print(f"creep_depth: no replica r<k> of case {args.case!r} under {args.root / 'dem'}", file=sys.stderr)
         return 2
-    config = load_config(args.root / "config.effective.json")
-    opts = settings(config)
-    rows = []
+    config_path = args.root / "config.effective.json"
+    try:
+        opts = settings(load_config(config_path))
+    except ConfigError as err:
+        print(f"creep_depth: {err} (--root must be the output root of a finished workflow)", file=sys.stderr)
+        return 2
+    windows = {r.name: run_windows(r, opts) for r in runs}
     # LIGGGHTS core-seconds per strain of each run's whole production window.
-    whole = [window_profiles(r, opts, 1.0) for r in runs]
-    rate = {r.name: p["production_core_s"] / p["strain"] for r, p in zip(runs, whole)}
-    for fraction in FRACTIONS:
-        profiles = whole if fraction == 1.0 else [window_profiles(r, opts, fraction) for r in runs]
-        for r, p in zip(runs, profiles):
+    rate = {name: w[-1]["production_core_s"] / w[-1]["strain"] for name, w in windows.items()}
+    rows = []
+    for k, fraction in enumerate(FRACTIONS):
+        profiles = {name: w[k] for name, w in windows.items()}
+        for name, p in profiles.items():
             decades, slowest = decades_resolved(p["u"], p["err"], 1.0)
-            rows.append({"run": r.name, "fraction": fraction, "strain": p["strain"], "decades": decades,
-                         "slowest_over_v": slowest, "core_s_per_strain": rate[r.name]})
-        decades, slowest = replica_mean_decades(profiles)
+            rows.append({"run": name, "fraction": fraction, "strain": p["strain"], "decades": decades,
+                         "slowest_over_v": slowest, "core_s_per_strain": rate[name]})
+        first = next(iter(profiles.values()))
+        mean, err = replica_mean(first["depth"], [(p["depth"], p["u"], p["err"]) for p in profiles.values()])
+        decades, slowest = decades_resolved(mean, err, 1.0)
         rows.append({"run": f"mean of {len(runs)}", "fraction": fraction,
-                     "strain": float(np.mean([p["strain"] for p in profiles])), "decades": decades,
-                     "slowest_over_v": slowest,
-                     "core_s_per_strain": float(sum(rate.values()))})
+                     "strain": float(np.mean([p["strain"] for p in profiles.values()])), "decades": decades,
+                     "slowest_over_v": slowest, "core_s_per_strain": float(sum(rate.values()))})
     table = pd.DataFrame(rows)
     pd.set_option("display.width", 200)
     print(f"Decades of u_x / V resolved above 2 sigma (u_x_disp), {args.case}, against the production strain averaged")

@@ -88,18 +88,19 @@ def _check_consistency(config: dict[str, Any], source: str) -> None:
         if "precision" in dem and dem["precision"]["min_production_strain"] > cap:
             raise ConfigError(f"{source}: cases.{name}.production_strain ({cap}) is below "
                               f"dem.precision.min_production_strain ({dem['precision']['min_production_strain']})")
-        targets = case.get("precision", {})
-        if ("log_speed" in targets) != ("log_speed_depth_over_d" in targets):
-            raise ConfigError(f"{source}: cases.{name}.precision: log_speed and log_speed_depth_over_d go together "
-                              "(the log-speed error is held down to that depth)")
+        _check_log_speed_pair(case.get("precision", {}), f"{source}: cases.{name}.precision")
     precision = dem.get("precision")
     if precision is not None:
-        if ("log_speed" in precision) != ("log_speed_depth_over_d" in precision):
-            raise ConfigError(f"{source}: dem.precision: log_speed and log_speed_depth_over_d go together "
-                              "(the log-speed error is held down to that depth)")
+        _check_log_speed_pair(precision, f"{source}: dem.precision")
         if precision["min_production_strain"] > dem["production_strain"]:
             raise ConfigError(f"{source}: dem.precision.min_production_strain ({precision['min_production_strain']}) "
                               f"exceeds dem.production_strain ({dem['production_strain']}), the production's cap")
+
+
+def _check_log_speed_pair(targets: dict[str, Any], where: str) -> None:
+    if ("log_speed" in targets) != ("log_speed_depth_over_d" in targets):
+        raise ConfigError(f"{where}: log_speed and log_speed_depth_over_d go together "
+                          "(the log-speed error is held down to that depth)")
 
 
 def _check_calibration_set(config: dict[str, Any], source: str) -> None:

@@ -67,10 +67,21 @@ def decades_resolved(u: np.ndarray, err: np.ndarray, wall_speed: float) -> tuple
     return float(math.log10(u[top] / slowest)), slowest / wall_speed
 
 
-def replica_mean(values: np.ndarray, errors: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Mean of replica profiles (axis 0) and its error: the larger of the combined stated errors
-    and the replicas' scatter over sqrt(n) (replicas differ by more than their stated errors
-    where the packing's structure is frozen, or their random rough walls differ)."""
+def replica_mean(depth: np.ndarray, replicas: list[tuple[np.ndarray, np.ndarray, np.ndarray]]
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """Mean of replica profiles at ``depth`` (m below the top wall) and its error.
+
+    ``replicas``: each replica's ``(depth, value, error)``, interpolated onto ``depth`` (NaN
+    beyond its own range: the replicas' walls differ slightly). The error is the larger of the
+    combined stated errors and the replicas' scatter over sqrt(n) (replicas differ by more than
+    their stated errors where the packing's structure is frozen, or their random rough walls
+    differ)."""
+    values, errors = [], []
+    for own, value, error in replicas:
+        order = np.argsort(own)
+        values.append(np.interp(depth, own[order], value[order], left=np.nan, right=np.nan))
+        errors.append(np.interp(depth, own[order], error[order], left=np.nan, right=np.nan))
+    values, errors = np.array(values), np.array(errors)
     n = values.shape[0]
     err = np.fmax(np.sqrt(np.sum(errors**2, axis=0)) / n, values.std(axis=0, ddof=1) / math.sqrt(n))
     return values.mean(axis=0), err

@@ -333,9 +333,12 @@ class PlanarShearRun:
         nevery = max(1, int(round(duration / self.design.dt / samples / 10)))
         series_every = 10 * nevery
         chunk_steps = series_every * samples
-        n_prod = max(1, int(math.ceil(self.dem["production_strain"] / self.dem["chunk_strain"])))
+        def chunks(strain: float) -> int:
+            return max(1, int(math.ceil(strain / self.dem["chunk_strain"])))
+
+        n_prod = chunks(self.dem["production_strain"])
         # dem.snapshots per dem.production_strain, whatever this case's cap.
-        per_chunk = max(1, int(math.ceil(self.dem["snapshots"] / max(1, int(math.ceil(self.dem["snapshot_strain"] / self.dem["chunk_strain"]))))))
+        per_chunk = max(1, int(math.ceil(self.dem["snapshots"] / chunks(self.dem["snapshot_strain"]))))
         dump_every = max(1, chunk_steps // per_chunk)
         while chunk_steps % dump_every:
             dump_every -= 1

@@ -116,15 +116,9 @@ def replica_mean_resolution(paths: list[Path]) -> list[dict[str, object]]:
             first = sets[0]
             mask = interior(first)
             depth = float(first.attrs["z_top_wall"]) - first.z.values[mask]
-            us, errs = [], []
-            for ds in sets:
-                u, err, _ = creep_speed(ds)
-                own = float(ds.attrs["z_top_wall"]) - ds.z.values
-                order = np.argsort(own)
-                us.append(np.interp(depth, own[order], u[order], left=np.nan, right=np.nan))
-                errs.append(np.interp(depth, own[order], err[order], left=np.nan, right=np.nan))
             n = len(files)
-            mean, err = replica_mean(np.array(us), np.array(errs))
+            mean, err = replica_mean(depth, [(float(ds.attrs["z_top_wall"]) - ds.z.values, *creep_speed(ds)[:2])
+                                             for ds in sets])
             # Ordered from the bottom up like a profile: depth decreasing.
             decades, slowest = decades_resolved(mean[::-1], err[::-1], float(first.attrs["wall_speed"]))
             rows.append({"case": case, "run": f"mean of {n} replicas", "decades_best": decades, "slowest_over_v_best": slowest})
