@@ -1,6 +1,7 @@
 """The DEM bill of two designs side by side: particle-steps, core-seconds and DEM noise per case.
 
-Reads the run records (``dem/<case>/<run>/run.json`` and ``state.json``) and the scores
+Reads the run records (``dem/<case>/<run>/run.json`` and ``state.json``, and the shared fills'
+``dem/<case>/fill-r<k>/fill.json``, counted once) and the scores
 (``scores.csv``: ``dem_noise`` per case and metric, the replica scatter of the metric) of two
 output roots made from the same cases: one with fixed-length production (``dem.precision``
 absent, 0.5-strain chunks: the design before issue 19) and one with production to a target
@@ -66,6 +67,16 @@ def run_costs(root: Path) -> pd.DataFrame:
                      **{f"core_seconds_{k}": ranks * v for k, v in seconds.items()},
                      "shear_strain": strain["shear"], "production_strain": strain["production"],
                      "stop": (record.get("production_stop") or {}).get("reason", "fixed length")})
+    # Fills shared by a rheometer replica's states (their runs record a fill of 0 steps): counted once.
+    for record_path in sorted((root / "dem").glob("*/fill-*/fill.json")):
+        record = json.loads(record_path.read_text())
+        n, ranks = record["particle_count"], record.get("mpi_ranks", 1)
+        steps, seconds = record["steps_by_stage"]["fill"], record["wall_seconds_by_stage"]["fill"]
+        rows.append({"case": record["case"], "run": record["run"], "particle_steps": n * steps,
+                     "particle_steps_fill": n * steps, "particle_steps_shear": 0, "particle_steps_production": 0,
+                     "core_seconds": ranks * seconds, "core_seconds_fill": ranks * seconds,
+                     "core_seconds_shear": 0.0, "core_seconds_production": 0.0,
+                     "shear_strain": float("nan"), "production_strain": float("nan"), "stop": "shared fill"})
     if not rows:
         raise SystemExit(f"{root}: no finished DEM runs (dem/*/*/run.json)")
     return pd.DataFrame(rows)
@@ -107,7 +118,8 @@ def main(argv: list[str] | None = None) -> int:
               "stops: " + "; ".join(f"{k}: {v}" for k, v in c["stop"].value_counts().items()))
     goal = {name: c[c["case"].isin(GOAL_CASES)] for name, c in costs.items()}
     common = set(zip(goal["fixed"]["case"], goal["fixed"]["run"])) & set(zip(goal["targeted"]["case"], goal["targeted"]["run"]))
-    same = {name: g[[(a, b) in common for a, b in zip(g["case"], g["run"])]] for name, g in goal.items()}
+    # A shared fill belongs to the common runs it was poured for.
+    same = {name: g[[(a, b) in common or b.startswith("fill-") for a, b in zip(g["case"], g["run"])]] for name, g in goal.items()}
     for label, part in (("all their runs", goal), (f"the {len(common)} runs both designs have", same)):
         steps = part["targeted"]["particle_steps"].sum() / part["fixed"]["particle_steps"].sum()
         secs = part["targeted"]["core_seconds"].sum() / part["fixed"]["core_seconds"].sum()

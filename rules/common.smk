@@ -5,6 +5,14 @@ def dem_case_config(wildcards):
     return targets.effective_config_file(config, dem_run=(wildcards.case, wildcards.run))
 
 
+def shared_fill_config(wildcards):
+    return targets.shared_fill_config_file(config, wildcards.case, f"fill-{wildcards.replica}")
+
+
+def shared_fill_record(wildcards):
+    return targets.shared_fill_record(wildcards, config)
+
+
 def case_fields(wildcards):
     return targets.case_fields(wildcards, config)
 

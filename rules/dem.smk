@@ -1,4 +1,32 @@
-# DEM: one LIGGGHTS run per case and run id (pipeline.dem).
+# DEM: one LIGGGHTS run per case and run id (pipeline.dem), and the fills shared by the states
+# of a rheometer replica (cases.rheometer.shared_fill, pipeline/dem/shared_fill.py).
+
+
+rule dem_fill:
+    message:
+        "LIGGGHTS shared fill {wildcards.case}/fill-{wildcards.replica}"
+    conda:
+        ENV
+    input:
+        shared_fill_config,
+    output:
+        f"{ROOT}/dem/{{case}}/fill-{{replica}}/fill.json",
+    log:
+        f"{ROOT}/logs/dem/{{case}}/fill-{{replica}}.log",
+    benchmark:
+        f"{ROOT}/benchmarks/dem/{{case}}/fill-{{replica}}.tsv"
+    wildcard_constraints:
+        replica="r[0-9]+",
+    params:
+        run_dir=targets.output_folder,
+    threads: targets.mpi_ranks(config)
+    resources:
+        tasks=targets.mpi_ranks(config),
+        mpi=targets.mpi_launcher(config),
+    shell:
+        "python -m pipeline.dem --config {input} --case {wildcards.case} --run fill-{wildcards.replica} --fill-only "
+        "--out {params.run_dir} --mpi-launcher '{resources.mpi}' --mpi-ranks {resources.tasks} "
+        "> {log} 2>&1"
 
 
 rule dem:
@@ -7,7 +35,8 @@ rule dem:
     conda:
         ENV
     input:
-        dem_case_config,
+        config=dem_case_config,
+        fill=shared_fill_record,
     output:
         f"{ROOT}/dem/{{case}}/{{run}}/run.json",
     log:
@@ -16,11 +45,12 @@ rule dem:
         f"{ROOT}/benchmarks/dem/{{case}}/{{run}}.tsv"
     params:
         run_dir=targets.output_folder,
+        fill_from=targets.fill_from_option,
     threads: targets.mpi_ranks(config)
     resources:
         tasks=targets.mpi_ranks(config),
         mpi=targets.mpi_launcher(config),
     shell:
-        "python -m pipeline.dem --config {input} --case {wildcards.case} --run {wildcards.run} "
+        "python -m pipeline.dem --config {input.config} --case {wildcards.case} --run {wildcards.run} {params.fill_from} "
         "--out {params.run_dir} --mpi-launcher '{resources.mpi}' --mpi-ranks {resources.tasks} "
         "> {log} 2>&1"

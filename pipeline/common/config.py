@@ -236,6 +236,56 @@ def dem_runs(config: dict[str, Any]) -> list[tuple[str, str]]:
     return [(name, run) for name, case in config["cases"].items() for run in run_ids(name, case)]
 
 
+#: Settings of a case that the fill (pour and settle, walls made) reads; nothing else changes it.
+FILL_CASE_KEYS = ("geometry", "cell_x", "cell_y", "n_grains", "gravity")
+
+
+def shared_fill_ids(case_name: str, case: dict[str, Any]) -> list[str]:
+    """The shared fills of a case, ``fill-r<k>``: one per replica when ``shared_fill`` is set.
+
+    Only the rheometer may share a fill: its runs of one replica are states at different I and P,
+    not replicas of each other, and each state's shear start-up (1 strain or more at its own rate)
+    makes its own steady packing from the common settled one. Replicas never share a fill.
+    """
+    if case_name != RHEOMETER or not case.get("shared_fill", False):
+        return []
+    return [f"fill-r{k + 1}" for k in range(case["replicas"])]
+
+
+def shared_fill_of(case_name: str, case: dict[str, Any], run: str) -> str | None:
+    """The shared fill a run starts from (``fill-r<k>`` of its replica), or None (its own fill)."""
+    if not shared_fill_ids(case_name, case) or size_study_cell(run) is not None:
+        return None
+    return f"fill-{run.rsplit('-', 1)[1]}"
+
+
+def fill_owner_run(case_name: str, case: dict[str, Any], fill: str) -> str:
+    """The run whose per-run config a shared fill reads: its replica's first state in config order.
+
+    The fill reads none of that state's settings (only :data:`FILL_CASE_KEYS`, the material and
+    the seed: :func:`fill_physics`); the first state is the stable choice when states are appended.
+    """
+    if fill not in shared_fill_ids(case_name, case):
+        raise ValueError(f"{fill!r} is not a shared fill of case {case_name!r} "
+                         f"(its fills: {', '.join(shared_fill_ids(case_name, case)) or 'none: shared_fill is not set'})")
+    replica = fill.split("-", 1)[1]
+    return next(run for run in run_ids(case_name, case) if run.endswith(f"-{replica}"))
+
+
+def fill_physics(config: dict[str, Any], case_name: str, fill: str) -> dict[str, Any]:
+    """What a shared fill's packing depends on: the material, the case's cell and grains, and the
+    fill's seed. A run adopting the fill checks it against its own config's."""
+    case = config["cases"][case_name]
+    return {"material": dict(config["material"]), "case": case_name, "fill": fill,
+            "cell": {k: case[k] for k in FILL_CASE_KEYS},
+            "seed": derived_seed(config["seed"], case_name, fill)}
+
+
+def dem_fills(config: dict[str, Any]) -> list[tuple[str, str]]:
+    """Every (case, shared fill) pair of the config."""
+    return [(name, fill) for name, case in config["cases"].items() for fill in shared_fill_ids(name, case)]
+
+
 _RHEOMETER_RUN = re.compile(r"^I([0-9.eE+-]+)-P([0-9.eE+-]+)-r\d+$")
 
 

@@ -6,9 +6,10 @@ from pathlib import Path
 
 from pipeline.common import atomic
 from pipeline.common.cli import positive_int
-from pipeline.common.config import dem_runs, load_config, size_study_cell
+from pipeline.common.config import dem_runs, load_config, shared_fill_ids, shared_fill_of, size_study_cell
 from pipeline.dem.intruder_run import IntruderRun, YieldProbe
-from pipeline.dem.planar_run import PlanarShearRun
+from pipeline.dem.planar_run import FILL_RECORD, PlanarShearRun
+from pipeline.dem.shared_fill import SharedFill
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -23,6 +24,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--mpi-launcher", help="override dem.mpi_launcher ('none' runs the binary directly)")
     parser.add_argument("--probe-yield", action="store_true",
                         help="intruder cases: measure the rod's yield force (staircase, wall at rest)")
+    parser.add_argument("--fill-only", action="store_true",
+                        help="run a shared fill (--run fill-r<k>, cases.rheometer.shared_fill): pour and settle only, write fill.json")
+    parser.add_argument("--fill-from", help="folder of the shared fill this run starts from (its fill.json)")
     args = parser.parse_args(argv)
     config = load_config(args.config)
     if args.mpi_ranks is not None:
@@ -31,21 +35,39 @@ def main(argv: list[str] | None = None) -> int:
         config["dem"]["mpi_launcher"] = args.mpi_launcher
     if args.case not in config["cases"]:
         parser.error(f"case {args.case!r} is not in {args.config} (cases: {', '.join(config['cases'])})")
+    case = config["cases"][args.case]
+    out = Path(args.out) if args.out else Path(config["output_root"]) / "dem" / args.case / args.run
+    if args.fill_only:
+        fills = shared_fill_ids(args.case, case)
+        if args.run not in fills:
+            parser.error(f"--fill-only --run {args.run!r}: not a shared fill of case {args.case!r} in {args.config} "
+                         f"(its fills: {', '.join(fills) or 'none, cases.' + args.case + '.shared_fill is not set'})")
+        record = SharedFill(config, args.case, args.run, out).run()
+        atomic.write_json(record, out / FILL_RECORD)
+        print(f"{args.case}/{args.run}: {record['steps_by_stage']['fill']} steps in {record['fill']['wall_seconds']:.1f} s of LIGGGHTS")
+        return 0
     runs = [r for c, r in dem_runs(config) if c == args.case]
     # Size-study runs (L<cell>-r<k>) belong to their case's study, which a run's own config omits.
     if args.run not in runs and size_study_cell(args.run) is None:
         parser.error(f"--run {args.run!r} is not a run of case {args.case!r} in {args.config} "
                      f"(its runs: {', '.join(runs[:12])}{' ...' if len(runs) > 12 else ''})")
-    out = Path(args.out) if args.out else Path(config["output_root"]) / "dem" / args.case / args.run
-    intruder = config["cases"][args.case]["geometry"] == "intruder"
+    intruder = case["geometry"] == "intruder"
+    expected_fill = shared_fill_of(args.case, case, args.run)
+    if (args.fill_from is None) != (expected_fill is None):
+        parser.error(f"--run {args.run!r} of case {args.case!r}: " + (
+            f"starts from shared fill {expected_fill!r} (cases.{args.case}.shared_fill): give --fill-from its folder"
+            if expected_fill else f"--fill-from: this run pours its own fill (cases.{args.case}.shared_fill is not set)"))
     if args.probe_yield:
         if not intruder:
             parser.error(f"--probe-yield needs an intruder case; {args.case!r} is planar shear")
         result = YieldProbe(config, args.case, args.run, out).run()
         print(f"yield coefficient between {result['largest_held_coefficient']} and {result['first_moving_coefficient']} (x p D L)")
         return 0
-    runner = IntruderRun if intruder else PlanarShearRun
-    record = runner(config, args.case, args.run, out).run()
+    if intruder:
+        record = IntruderRun(config, args.case, args.run, out).run()
+    else:
+        record = PlanarShearRun(config, args.case, args.run, out,
+                                fill_from=Path(args.fill_from) if args.fill_from else None).run()
     atomic.write_json(record, out / "run.json")
     if intruder:
         rod = record["intruder"]

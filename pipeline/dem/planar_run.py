@@ -35,7 +35,8 @@ import pandas as pd
 
 from pipeline.dem import liggghts_render as render
 from pipeline.dem import precision
-from pipeline.common.config import case_production, derived_seed, liggghts_seed, mean_grain_volume, run_case, run_physics, run_state, size_classes
+from pipeline.common.config import (case_production, derived_seed, fill_physics, liggghts_seed, mean_grain_volume, run_case, run_physics,
+                                    run_state, shared_fill_of, size_classes)
 from pipeline.dem.contact_scaling import ContactDesign, design_contacts
 from pipeline.common.formats import RUN_FORMAT_VERSION
 from pipeline.dem.liggghts_log import DEMRunError, check_run, printed_value
@@ -59,6 +60,11 @@ MIN_GAP_OVER_D = 6.0
 WALL_DAMPING_RATIO = 0.1
 #: Kinetic energy per grain, in units of m g d, below which the poured packing counts as settled.
 SETTLED_KE_PER_GRAIN = 1e-3
+#: A shared fill's record, in its folder (pipeline.dem.shared_fill).
+FILL_RECORD = "fill.json"
+#: What a run takes from a shared fill: the restart it shears from, the settled snapshot and the
+#: include files and log that made it (kept so the run folder shows its whole history).
+FILL_FILES = ("fill.restart", "settled.dump", "bottom_wall.in", "top_wall.in", "grains.in", "in.fill", "logs/fill.log")
 
 
 def contact_design(config: dict[str, Any]) -> ContactDesign:
@@ -160,8 +166,12 @@ def read_settled(path: Path) -> pd.DataFrame:
 class PlanarShearRun:
     """One DEM run of a planar shear case (rheometer or shear with gravity)."""
 
-    def __init__(self, config: dict[str, Any], case_name: str, run_id: str, run_dir: Path) -> None:
+    def __init__(self, config: dict[str, Any], case_name: str, run_id: str, run_dir: Path,
+                 fill_from: Path | None = None) -> None:
+        """``fill_from``: folder of a shared fill (``fill.json``, :mod:`pipeline.dem.shared_fill`)
+        the run starts from instead of pouring its own."""
         self.config = config
+        self.fill_from = fill_from
         self.case_name = case_name
         self.run_id = run_id
         self.case = run_case(config["cases"][case_name], run_id)
@@ -298,6 +308,31 @@ class PlanarShearRun:
             "wall_mass": float(np.sum(rho * np.pi * top.diameter**3 / 6.0)),
         }
         self.state["wall_seconds"] += seconds
+        self._save_state()
+
+    def _adopt_fill(self, source: Path) -> None:
+        """Start from a shared fill: copy its settled packing, walls and restart into this run.
+
+        The fill's record must carry the physics this run's config gives it (material, cell, grains,
+        seed): a fill made for another config is refused, never silently used. The run's own fill
+        stage then costs nothing; the fill's steps and seconds are counted once, in ``fill.json``.
+        """
+        record_path = source / FILL_RECORD
+        if not record_path.is_file():
+            raise DEMRunError(f"{self.label}: --fill-from {source}: no {FILL_RECORD} there (the shared fill has not run)")
+        record = json.loads(record_path.read_text())
+        expected = fill_physics(self.config, self.case_name, record.get("run", "?"))
+        if shared_fill_of(self.case_name, self.case, self.run_id) != record.get("run") or record.get("physics") != expected:
+            raise DEMRunError(f"{self.label}: {record_path} is fill {record.get('run')!r} made with other settings "
+                              f"than this run's config gives its shared fill {shared_fill_of(self.case_name, self.case, self.run_id)!r} "
+                              "(material, cell, grains or seed differ): rerun the fill")
+        for name in FILL_FILES:
+            target = self.run_dir / name
+            target.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(source / name, target)
+        self.state["fill"] = record["fill"] | {
+            "steps": 0, "wall_seconds": 0.0,
+            "shared": {"run": record["run"], "steps": record["fill"]["steps"], "wall_seconds": record["fill"]["wall_seconds"]}}
         self._save_state()
 
     # ------------------------------------------------------------------------------- shearing
@@ -463,7 +498,10 @@ class PlanarShearRun:
         render.copy_templates(geometry, self.run_dir)
         self._load_state()
         if "fill" not in self.state:
-            self._fill()
+            if self.fill_from is not None:
+                self._adopt_fill(self.fill_from)
+            else:
+                self._fill()
             print(f"{self.label}: fill and settle done, {self.state['fill']['settled_gap'] / self.mat['d']:.1f} d "
                   f"between the walls, {self.state['wall_seconds']:.1f} s", flush=True)
         plan = self._chunk_plan()
@@ -643,6 +681,8 @@ class PlanarShearRun:
             "production_strain": len(production) * self.dem["chunk_strain"],
             "production_stop": self.state.get("production_stop"),
             "steps_by_stage": self.steps_by_stage(),
+            # The shared fill this run started from (its steps and seconds, counted once there), or None.
+            "shared_fill": self.state["fill"].get("shared"),
             "wall_seconds_by_stage": self.seconds_by_stage(),
             "chunk_steps": plan["chunk_steps"],
             "dump_every": plan["dump_every"],

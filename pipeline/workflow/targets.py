@@ -10,7 +10,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from pipeline.common.config import RHEOMETER, ConfigError, calibration_runs, dem_runs, run_config, validate_config
+from pipeline.common.config import (RHEOMETER, ConfigError, calibration_runs, dem_runs, fill_owner_run, run_config, shared_fill_of,
+                                    validate_config)
 from pipeline.common.layout import fields_paths, root
 
 
@@ -74,6 +75,23 @@ def effective_config_file(config: dict[str, Any], dem_run: tuple[str, str] | Non
         tmp.write_text(text)
         tmp.replace(path)
     return str(path)
+
+
+def shared_fill_config_file(config: dict[str, Any], case: str, fill: str) -> str:
+    """The per-run config a shared fill reads: its replica's first state's (the fill depends on
+    none of a state's own settings, :func:`pipeline.common.config.fill_physics`)."""
+    return effective_config_file(config, dem_run=(case, fill_owner_run(case, config["cases"][case], fill)))
+
+
+def shared_fill_record(wildcards: Any, config: dict[str, Any]) -> list[str]:
+    """Input function body: ``fill.json`` of the shared fill a DEM run starts from, if any."""
+    fill = shared_fill_of(wildcards.case, config["cases"][wildcards.case], wildcards.run)
+    return [str(root(config) / "dem" / wildcards.case / fill / "fill.json")] if fill else []
+
+
+def fill_from_option(wildcards: Any, input: Any) -> str:  # noqa: A002 (Snakemake's name)
+    """``--fill-from <folder>`` for a run with a shared fill among its inputs, else nothing."""
+    return f"--fill-from {shlex.quote(str(Path(input.fill[0]).parent))}" if input.fill else ""
 
 
 def nonlocal_calibration_fields(config: dict[str, Any]) -> str:

@@ -12,9 +12,14 @@ from pipeline.common.config import (
     _is_prime,
     dem_runs,
     derived_seed,
+    fill_owner_run,
+    fill_physics,
     liggghts_seed,
     load_config,
+    run_config,
     run_state,
+    shared_fill_ids,
+    shared_fill_of,
     validate_config,
 )
 
@@ -38,6 +43,8 @@ def test_both_shipped_configs_are_valid() -> None:
         (lambda c: c["cases"]["rheometer"].__setitem__("gravity", 9.81), "cases.rheometer.gravity"),
         (lambda c: c["dem"].__setitem__("mpi_ranks", 0), "dem.mpi_ranks"),
         (lambda c: c["dem"].__setitem__("unknown_key", 1), "dem"),
+        # Replicas never share a fill: only the rheometer's states may.
+        (lambda c: c["cases"]["shear_gravity"].__setitem__("shared_fill", True), "cases.shear_gravity"),
         (lambda c: c.__setitem__("seed", -1), "seed"),
     ],
 )
@@ -130,3 +137,29 @@ def test_case_targets_that_cannot_work_are_refused(config: dict, mutate, message
     with pytest.raises(ConfigError) as err:
         validate_config(bad, "bad.yaml")
     assert message in str(err.value)
+
+
+def test_a_rheometer_replica_shares_one_fill_and_replicas_do_not(config: dict) -> None:
+    config["cases"]["rheometer"]["replicas"] = 2
+    rheometer = config["cases"]["rheometer"]
+    assert shared_fill_ids("rheometer", rheometer) == ["fill-r1", "fill-r2"]
+    states = [r for c, r in dem_runs(config) if c == "rheometer"]
+    assert {shared_fill_of("rheometer", rheometer, r) for r in states if r.endswith("-r2")} == {"fill-r2"}
+    assert shared_fill_ids("shear_gravity", config["cases"]["shear_gravity"]) == []
+    assert shared_fill_of("shear_gravity", config["cases"]["shear_gravity"], "r1") is None
+    # The fills' seeds differ (independent replicas), and no state's seed is a fill's.
+    seeds = {fill: fill_physics(config, "rheometer", fill)["seed"] for fill in ("fill-r1", "fill-r2")}
+    assert len(set(seeds.values())) == 2
+    assert not set(seeds.values()) & {derived_seed(config["seed"], "rheometer", r) for r in states}
+    # The fill reads its replica's first state's config; appending a state changes neither it
+    # nor what the fill depends on.
+    owner = fill_owner_run("rheometer", rheometer, "fill-r1")
+    before = run_config(config, "rheometer", owner), fill_physics(config, "rheometer", "fill-r1")
+    rheometer["extra_states"].append({"inertial_number": 0.5, "wall_pressure": 20.0})
+    assert fill_owner_run("rheometer", rheometer, "fill-r1") == owner
+    assert (run_config(config, "rheometer", owner), fill_physics(config, "rheometer", "fill-r1")) == before
+    # Any state's own config gives the same fill physics as the owner's: each run can check it.
+    for run in states:
+        assert fill_physics(run_config(config, "rheometer", run), "rheometer", "fill-r1") == before[1]
+    with pytest.raises(ValueError, match="not a shared fill"):
+        fill_owner_run("rheometer", rheometer, "fill-r3")

@@ -93,10 +93,12 @@ def seed_dem_runs(local: Path, out: Path, env: dict) -> None:
     (without their dump stores, which the workflow rebuilds), newer than the per-run configs the
     workflow writes, so Snakemake takes them as done; check that exactly the others are planned."""
     planned = planned_dem_jobs(out, env)
-    for case, run in sorted(planned - set(THROUGH_SLURM)):
-        target = out / "dem" / case / run
-        shutil.copytree(local / "dem" / case / run, target, ignore=shutil.ignore_patterns("dumps.nc"))
-        (target / "run.json").touch()
+    copied = sorted(planned - set(THROUGH_SLURM))
+    for case, run in copied:
+        shutil.copytree(local / "dem" / case / run, out / "dem" / case / run, ignore=shutil.ignore_patterns("dumps.nc"))
+    # Shared fills first: a run is older than its fill's record would be rerun.
+    for case, run in sorted(copied, key=lambda job: not job[1].startswith("fill-")):
+        (out / "dem" / case / run / ("fill.json" if run.startswith("fill-") else "run.json")).touch()
     left = planned_dem_jobs(out, env)
     assert left == set(THROUGH_SLURM), f"planned before seeding {sorted(planned)}, after {sorted(left)}"
 

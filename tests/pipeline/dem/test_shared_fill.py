@@ -1,0 +1,87 @@
+"""A fill shared by the states of a rheometer replica (pipeline/dem/shared_fill.py).
+
+On the reduced workflow's real output (config/ci.yaml sets ``shared_fill``): every state starts
+from the one settled packing of its replica and pays no fill of its own, and the fill's work is
+recorded once. A fill made with other physics than a run's config gives it is refused.
+"""
+from __future__ import annotations
+
+import copy
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+
+from pipeline.common.config import fill_physics, load_config, run_config
+from pipeline.dem.liggghts_log import DEMRunError
+from pipeline.dem.planar_run import FILL_FILES, FILL_RECORD, PlanarShearRun
+
+REPO = Path(__file__).resolve().parents[3]
+
+
+@pytest.mark.liggghts
+def test_the_states_of_a_replica_shear_from_one_settled_packing(reduced_results: Path) -> None:
+    fill_dir = reduced_results / "dem" / "rheometer" / "fill-r1"
+    fill = json.loads((fill_dir / FILL_RECORD).read_text())
+    assert fill["steps_by_stage"]["fill"] > 0 and fill["run"] == "fill-r1"
+    states = sorted(p.parent for p in (reduced_results / "dem" / "rheometer").glob("I*-r1/run.json"))
+    assert len(states) == 5
+    restart = (fill_dir / "fill.restart").read_bytes()
+    for state in states:
+        record = json.loads((state / "run.json").read_text())
+        # The same packing and walls: the restart it sheared from is the fill's, byte for byte.
+        assert (state / "fill.restart").read_bytes() == restart, state.name
+        assert record["settled_gap"] == fill["fill"]["settled_gap"]
+        assert record["wall_coverage"] == fill["fill"]["wall_coverage"]
+        # Its fill costs nothing here: the work is the fill's, counted once.
+        assert record["steps_by_stage"]["fill"] == 0
+        assert record["shared_fill"] == {"run": "fill-r1", "steps": fill["fill"]["steps"],
+                                         "wall_seconds": fill["fill"]["wall_seconds"]}
+        assert record["steps_by_stage"]["shear"] > 0 and record["steps_by_stage"]["production"] > 0
+    # Each state sheared to its own steady state: the states' wall speeds differ (their own I, P).
+    speeds = [json.loads((s / "run.json").read_text())["wall_speed"] for s in states]
+    assert len(set(speeds)) == len(speeds)
+
+
+def _fake_fill(tmp_path: Path, config: dict, fill: str) -> Path:
+    """A fill folder with the record a run checks and empty stand-ins for the files it copies
+    (the refusal happens before any copy or LIGGGHTS call)."""
+    source = tmp_path / fill
+    for name in FILL_FILES:
+        (source / name).parent.mkdir(parents=True, exist_ok=True)
+        (source / name).write_text("")
+    record = {"run": fill, "physics": fill_physics(config, "rheometer", fill),
+              "fill": {"steps": 10, "wall_seconds": 1.0}}
+    (source / FILL_RECORD).write_text(json.dumps(record))
+    return source
+
+
+def test_a_fill_made_with_other_physics_is_refused(tmp_path: Path) -> None:
+    config = run_config(load_config(REPO / "config" / "ci.yaml"), "rheometer", "I0.02-P200-r1")
+    other = copy.deepcopy(config)
+    other["material"]["friction"] = 0.3
+    source = _fake_fill(tmp_path, other, "fill-r1")
+    run = PlanarShearRun(config, "rheometer", "I0.02-P200-r1", tmp_path / "run", fill_from=source)
+    with pytest.raises(DEMRunError, match=r"fill\.json is fill 'fill-r1' made with other settings"):
+        run.run()
+    assert not (tmp_path / "run" / "fill.restart").exists()
+
+
+def test_a_fill_of_another_replica_is_refused(tmp_path: Path) -> None:
+    config = load_config(REPO / "config" / "ci.yaml")
+    config["cases"]["rheometer"]["replicas"] = 2
+    state = run_config(config, "rheometer", "I0.02-P200-r1")
+    source = _fake_fill(tmp_path, state, "fill-r2")
+    run = PlanarShearRun(state, "rheometer", "I0.02-P200-r1", tmp_path / "run", fill_from=source)
+    with pytest.raises(DEMRunError, match=r"its shared fill 'fill-r1'"):
+        run.run()
+
+
+def test_a_missing_fill_is_named(tmp_path: Path) -> None:
+    config = run_config(load_config(REPO / "config" / "ci.yaml"), "rheometer", "I0.02-P200-r1")
+    (tmp_path / "empty").mkdir()
+    shutil.rmtree(tmp_path / "run", ignore_errors=True)
+    run = PlanarShearRun(config, "rheometer", "I0.02-P200-r1", tmp_path / "run", fill_from=tmp_path / "empty")
+    with pytest.raises(DEMRunError, match=r"no fill\.json there"):
+        run.run()
