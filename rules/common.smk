@@ -6,7 +6,7 @@ def dem_case_config(wildcards):
 
 
 def shared_fill_config(wildcards):
-    return targets.shared_fill_config_file(config, wildcards.case, f"fill-{wildcards.replica}")
+    return targets.shared_fill_config_file(config, wildcards.case, wildcards.fill)
 
 
 def shared_fill_record(wildcards):

@@ -1,22 +1,22 @@
-# DEM: one LIGGGHTS run per case and run id (pipeline.dem), and the fills shared by the states
-# of a rheometer replica (cases.rheometer.shared_fill, pipeline/dem/shared_fill.py).
+# DEM: one LIGGGHTS run per case and run id (pipeline.dem), and the fills several runs start from
+# (a rheometer replica's states, an intruder run and its control: pipeline/dem/shared_fill.py).
 
 
 rule dem_fill:
     message:
-        "LIGGGHTS shared fill {wildcards.case}/fill-{wildcards.replica}"
+        "LIGGGHTS shared fill {wildcards.case}/{wildcards.fill}"
     conda:
         ENV
     input:
         shared_fill_config,
     output:
-        f"{ROOT}/dem/{{case}}/fill-{{replica}}/fill.json",
+        f"{ROOT}/dem/{{case}}/{{fill}}/fill.json",
     log:
-        f"{ROOT}/logs/dem/{{case}}/fill-{{replica}}.log",
+        f"{ROOT}/logs/dem/{{case}}/{{fill}}.log",
     benchmark:
-        f"{ROOT}/benchmarks/dem/{{case}}/fill-{{replica}}.tsv"
+        f"{ROOT}/benchmarks/dem/{{case}}/{{fill}}.tsv"
     wildcard_constraints:
-        replica="r[0-9]+",
+        fill="fill-[A-Za-z0-9.\\-]+",
     params:
         run_dir=targets.output_folder,
     threads: targets.mpi_ranks(config)
@@ -24,7 +24,7 @@ rule dem_fill:
         tasks=targets.mpi_ranks(config),
         mpi=targets.mpi_launcher(config),
     shell:
-        "python -m pipeline.dem --config {input} --case {wildcards.case} --run fill-{wildcards.replica} --fill-only "
+        "python -m pipeline.dem --config {input} --case {wildcards.case} --run {wildcards.fill} --fill-only "
         "--out {params.run_dir} --mpi-launcher '{resources.mpi}' --mpi-ranks {resources.tasks} "
         "> {log} 2>&1"
 

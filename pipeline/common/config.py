@@ -236,48 +236,62 @@ def dem_runs(config: dict[str, Any]) -> list[tuple[str, str]]:
     return [(name, run) for name, case in config["cases"].items() for run in run_ids(name, case)]
 
 
-#: Settings of a case that the fill (pour and settle, walls made) reads; nothing else changes it.
-FILL_CASE_KEYS = ("geometry", "cell_x", "cell_y", "n_grains", "gravity")
+#: Settings of a case that the fill (pour and settle, walls and bodies made) reads; nothing else changes it.
+FILL_CASE_KEYS = ("geometry", "cell_x", "cell_y", "n_grains", "gravity", "rod_diameter")
 
 
 def shared_fill_ids(case_name: str, case: dict[str, Any]) -> list[str]:
-    """The shared fills of a case, ``fill-r<k>``: one per replica when ``shared_fill`` is set.
+    """The fills of a case that several runs start from, each poured once in its own folder.
 
-    Only the rheometer may share a fill: its runs of one replica are states at different I and P,
-    not replicas of each other, and each state's shear start-up (1 strain or more at its own rate)
-    makes its own steady packing from the common settled one. Replicas never share a fill.
+    - The rheometer with ``shared_fill``: ``fill-r<k>``, one per replica, for all its states (they
+      are states at different I and P, not replicas of each other, and each shears 1 strain or more
+      at its own rate to its own steady packing before anything is measured).
+    - An intruder case with ``control``: ``fill-D<depth>-r<k>``, the shallowest run's, which its
+      control (the same run with the top wall at rest) has always poured again from the same seed.
+    Replicas never share a fill: their scatter is the DEM noise.
     """
-    if case_name != RHEOMETER or not case.get("shared_fill", False):
-        return []
-    return [f"fill-r{k + 1}" for k in range(case["replicas"])]
+    replicas = [f"r{k + 1}" for k in range(case["replicas"])]
+    if case_name == RHEOMETER and case.get("shared_fill", False):
+        return [f"fill-{rep}" for rep in replicas]
+    if case["geometry"] == "intruder" and case.get("control", False):
+        return [f"fill-D{min(case['depths_below_top']):g}-{rep}" for rep in replicas]
+    return []
 
 
 def shared_fill_of(case_name: str, case: dict[str, Any], run: str) -> str | None:
-    """The shared fill a run starts from (``fill-r<k>`` of its replica), or None (its own fill)."""
+    """The shared fill a run starts from, or None (it pours its own)."""
     if not shared_fill_ids(case_name, case) or size_study_cell(run) is not None:
         return None
+    if case["geometry"] == "intruder":
+        depth, _, replica = intruder_run(run)
+        fill = f"fill-D{depth:g}-{replica}"
+        return fill if fill in shared_fill_ids(case_name, case) else None
     return f"fill-{run.rsplit('-', 1)[1]}"
 
 
 def fill_owner_run(case_name: str, case: dict[str, Any], fill: str) -> str:
-    """The run whose per-run config a shared fill reads: its replica's first state in config order.
+    """The run whose per-run config a shared fill reads (and whose set-up, with the fill's seed, pours it).
 
-    The fill reads none of that state's settings (only :data:`FILL_CASE_KEYS`, the material and
-    the seed: :func:`fill_physics`); the first state is the stable choice when states are appended.
+    Rheometer: the replica's first state in config order (the fill reads none of a state's own
+    settings; the first is the stable choice when states are appended). Intruder: the sheared run
+    at the fill's depth.
     """
     if fill not in shared_fill_ids(case_name, case):
         raise ValueError(f"{fill!r} is not a shared fill of case {case_name!r} "
-                         f"(its fills: {', '.join(shared_fill_ids(case_name, case)) or 'none: shared_fill is not set'})")
+                         f"(its fills: {', '.join(shared_fill_ids(case_name, case)) or 'none'})")
+    if case["geometry"] == "intruder":
+        return fill.removeprefix("fill-")
     replica = fill.split("-", 1)[1]
     return next(run for run in run_ids(case_name, case) if run.endswith(f"-{replica}"))
 
 
 def fill_physics(config: dict[str, Any], case_name: str, fill: str) -> dict[str, Any]:
-    """What a shared fill's packing depends on: the material, the case's cell and grains, and the
-    fill's seed. A run adopting the fill checks it against its own config's."""
+    """What a shared fill's packing depends on: the material, the case's cell, grains and bodies
+    (an intruder's rod: its depth is in the fill's id), and the fill's own seed (from its id, so
+    any run's own config gives it). A run adopting the fill checks it against its own config's."""
     case = config["cases"][case_name]
     return {"material": dict(config["material"]), "case": case_name, "fill": fill,
-            "cell": {k: case[k] for k in FILL_CASE_KEYS},
+            "cell": {k: case[k] for k in FILL_CASE_KEYS if k in case},
             "seed": derived_seed(config["seed"], case_name, fill)}
 
 

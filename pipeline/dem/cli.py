@@ -9,7 +9,7 @@ from pipeline.common.cli import positive_int
 from pipeline.common.config import dem_runs, load_config, shared_fill_ids, shared_fill_of, size_study_cell
 from pipeline.dem.intruder_run import IntruderRun, YieldProbe
 from pipeline.dem.planar_run import FILL_RECORD, PlanarShearRun
-from pipeline.dem.shared_fill import SharedFill
+from pipeline.dem.shared_fill import run_shared_fill
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -25,7 +25,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--probe-yield", action="store_true",
                         help="intruder cases: measure the rod's yield force (staircase, wall at rest)")
     parser.add_argument("--fill-only", action="store_true",
-                        help="run a shared fill (--run fill-r<k>, cases.rheometer.shared_fill): pour and settle only, write fill.json")
+                        help="run a shared fill (--run fill-<...>: a rheometer replica's with cases.rheometer.shared_fill, an intruder "
+                             "control's): pour and settle only, write fill.json")
     parser.add_argument("--fill-from", help="folder of the shared fill this run starts from (its fill.json)")
     args = parser.parse_args(argv)
     config = load_config(args.config)
@@ -41,8 +42,8 @@ def main(argv: list[str] | None = None) -> int:
         fills = shared_fill_ids(args.case, case)
         if args.run not in fills:
             parser.error(f"--fill-only --run {args.run!r}: not a shared fill of case {args.case!r} in {args.config} "
-                         f"(its fills: {', '.join(fills) or 'none, cases.' + args.case + '.shared_fill is not set'})")
-        record = SharedFill(config, args.case, args.run, out).run()
+                         f"(its fills: {', '.join(fills) or 'none'})")
+        record = run_shared_fill(config, args.case, args.run, out)
         atomic.write_json(record, out / FILL_RECORD)
         print(f"{args.case}/{args.run}: {record['steps_by_stage']['fill']} steps in {record['fill']['wall_seconds']:.1f} s of LIGGGHTS")
         return 0
@@ -52,22 +53,20 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(f"--run {args.run!r} is not a run of case {args.case!r} in {args.config} "
                      f"(its runs: {', '.join(runs[:12])}{' ...' if len(runs) > 12 else ''})")
     intruder = case["geometry"] == "intruder"
-    expected_fill = shared_fill_of(args.case, case, args.run)
-    if (args.fill_from is None) != (expected_fill is None):
-        parser.error(f"--run {args.run!r} of case {args.case!r}: " + (
-            f"starts from shared fill {expected_fill!r} (cases.{args.case}.shared_fill): give --fill-from its folder"
-            if expected_fill else f"--fill-from: this run pours its own fill (cases.{args.case}.shared_fill is not set)"))
+    # The probe pours its own fill: a study of its own, not a run of the workflow.
     if args.probe_yield:
         if not intruder:
             parser.error(f"--probe-yield needs an intruder case; {args.case!r} is planar shear")
         result = YieldProbe(config, args.case, args.run, out).run()
         print(f"yield coefficient between {result['largest_held_coefficient']} and {result['first_moving_coefficient']} (x p D L)")
         return 0
-    if intruder:
-        record = IntruderRun(config, args.case, args.run, out).run()
-    else:
-        record = PlanarShearRun(config, args.case, args.run, out,
-                                fill_from=Path(args.fill_from) if args.fill_from else None).run()
+    expected_fill = shared_fill_of(args.case, case, args.run)
+    if (args.fill_from is None) != (expected_fill is None):
+        parser.error(f"--run {args.run!r} of case {args.case!r}: " + (
+            f"starts from shared fill {expected_fill!r}: give --fill-from its folder"
+            if expected_fill else "--fill-from: this run pours its own fill"))
+    runner = IntruderRun if intruder else PlanarShearRun
+    record = runner(config, args.case, args.run, out, fill_from=Path(args.fill_from) if args.fill_from else None).run()
     atomic.write_json(record, out / "run.json")
     if intruder:
         rod = record["intruder"]

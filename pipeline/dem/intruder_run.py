@@ -14,7 +14,8 @@ the pressure at the rod's axis (:func:`hydrostatic_pressure`), ``D`` its diamete
 cell length along y. ``yield_coefficient`` is measured with :class:`YieldProbe` (top wall at rest,
 a staircase of forces; ``python -m pipeline.dem --probe-yield``) and written in the
 config. All runs of a case use the same ``F``; the control run (``D<depth>-control-r<k>``) repeats
-the shallowest run with the top wall at rest (same seed, so the same settled packing).
+the shallowest run with the top wall at rest, from the same settled packing (poured once,
+``fill-D<depth>-r<k>``: :mod:`pipeline.dem.shared_fill`).
 
 Run ids: ``D<depth in d>-r<k>`` and ``D<depth in d>-control-r<k>``. Sign conventions: x is the
 flow direction, z up, gravity along -z; the rod's speed is positive along +x (the push and the
@@ -131,12 +132,13 @@ def read_intruder_series(path: Path) -> pd.DataFrame:
 class IntruderRun(PlanarShearRun):
     """One run of the intruder case (see the module docstring); reuses the planar-shear stages."""
 
-    def __init__(self, config: dict[str, Any], case_name: str, run_id: str, run_dir: Path) -> None:
-        super().__init__(config, case_name, run_id, run_dir)
+    def __init__(self, config: dict[str, Any], case_name: str, run_id: str, run_dir: Path,
+                 fill_from: Path | None = None) -> None:
+        super().__init__(config, case_name, run_id, run_dir, fill_from=fill_from)
         self.depth_over_d, self.control, replica = intruder_run(run_id)
         if self.control:
-            # Same seed as the sheared run at this depth: same walls, rod and settled packing,
-            # so the control differs from it by the wall at rest only.
+            # The sheared run's seed: with the shared fill (fill-D<depth>-r<k>) both start from one
+            # settled packing, walls and rod, so the control differs by the wall at rest only.
             self.seed = derived_seed(config["seed"], case_name, f"D{self.depth_over_d:g}-{replica}")
         d = self.mat["d"]
         self.rod_diameter = float(self.case["rod_diameter"]) * d
@@ -308,8 +310,9 @@ class YieldProbe(IntruderRun):
     stops there. Written to ``yield.json`` in the run folder.
     """
 
-    def __init__(self, config: dict[str, Any], case_name: str, run_id: str, run_dir: Path) -> None:
-        super().__init__(config, case_name, run_id, run_dir)
+    def __init__(self, config: dict[str, Any], case_name: str, run_id: str, run_dir: Path,
+                 fill_from: Path | None = None) -> None:
+        super().__init__(config, case_name, run_id, run_dir, fill_from=fill_from)
         self.control = True
         d = self.mat["d"]
         self.scale = hydrostatic_pressure(self.wall_pressure, self.mat["rho_s"], self.case["gravity"],

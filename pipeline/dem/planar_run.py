@@ -65,6 +65,8 @@ FILL_RECORD = "fill.json"
 #: What a run takes from a shared fill: the restart it shears from, the settled snapshot and the
 #: include files and log that made it (kept so the run folder shows its whole history).
 FILL_FILES = ("fill.restart", "settled.dump", "bottom_wall.in", "top_wall.in", "grains.in", "in.fill", "logs/fill.log")
+#: Made by the fill of some geometries only (the intruder's rod).
+OPTIONAL_FILL_FILES = ("intruder.in",)
 
 
 def contact_design(config: dict[str, Any]) -> ContactDesign:
@@ -326,10 +328,12 @@ class PlanarShearRun:
             raise DEMRunError(f"{self.label}: {record_path} is fill {record.get('run')!r} made with other settings "
                               f"than this run's config gives its shared fill {shared_fill_of(self.case_name, self.case, self.run_id)!r} "
                               "(material, cell, grains or seed differ): rerun the fill")
-        for name in FILL_FILES:
+        for name in FILL_FILES + tuple(n for n in OPTIONAL_FILL_FILES if (source / n).is_file()):
             target = self.run_dir / name
             target.parent.mkdir(parents=True, exist_ok=True)
             shutil.copy2(source / name, target)
+        if record.get("bodies"):
+            self.state["intruder"] = record["bodies"]
         self.state["fill"] = record["fill"] | {
             "steps": 0, "wall_seconds": 0.0,
             "shared": {"run": record["run"], "steps": record["fill"]["steps"], "wall_seconds": record["fill"]["wall_seconds"]}}
@@ -622,17 +626,23 @@ class PlanarShearRun:
               f"left: {bound}{left} chunks, ~{left * mean_seconds:.0f} s", flush=True)
 
     def pair_force_sum(self, shear: float) -> dict[str, float] | None:
-        """Mean x sum of all contact forces over production (N), relative to ``shear``, the mean
-        top-wall shear force (N); None when a production chunk has no pair-sum file (runs made
-        before it was recorded, the intruder's template)."""
+        """Mean sums of all contact forces over production (N): x (also relative to ``shear``, the
+        mean top-wall shear force, N), y, and z (the atoms' z forces less the grains' weight and the
+        top wall's load, also relative to their sum); None when a production chunk has no pair-sum
+        file (the intruder's template)."""
         production = [c for c in self.state["chunks"] if c["kind"] == "production"]
         files = [self.run_dir / "series" / f"pairsum_{c['stage']}.txt" for c in production]
         if not production or not all(f.is_file() for f in files):
             return None
         sums = pd.concat([read_wall_series(f, PAIRSUM_COLUMNS) for f in files], ignore_index=True)
         mean_x = float(sums["fsum_x"].mean())
-        return {"mean_x": mean_x, "mean_y": float(sums["fsum_y"].mean()),
-                "over_top_shear_force": mean_x / abs(shear) if shear else float("nan")}
+        area = self.case["cell_x"] * self.case["cell_y"] * self.mat["d"] ** 2
+        settled = read_settled(self.run_dir / "settled.dump")
+        external = self.wall_pressure * area + float(settled.loc[settled["type"] == 1, "mass"].sum()) * self.case["gravity"]
+        mean_z = float(sums["fsum_z"].mean()) + external
+        return {"mean_x": mean_x, "mean_y": float(sums["fsum_y"].mean()), "mean_z": mean_z,
+                "over_top_shear_force": mean_x / abs(shear) if shear else float("nan"),
+                "z_over_load_and_weight": mean_z / external}
 
     def steps_by_stage(self) -> dict[str, int]:
         """Time steps spent in each stage: fill (pour and settle), shear to the steady state, production."""

@@ -7,10 +7,13 @@ top-wall grains), ``ke`` (J, translational kinetic energy of the flowing grains)
 (m, largest contact overlap at the sample).
 
 The pair-force sums (``series/pairsum_*.txt``, planar shear, same samples): ``step``, ``time`` (s),
-``fsum_x``, ``fsum_y`` (N), the x and y forces summed over every atom. No body force acts along x
-or y, so this is the sum of all contact forces: zero if every pair obeys action = reaction. LIGGGHTS
-3.8 keeps two tangential histories for a contact across a periodic boundary (newton off, which
-its granular pair style requires) and they can differ: the sum is not zero (docs/dem.md).
+``fsum_x``, ``fsum_y``, ``fsum_z`` (N), the forces summed over every atom. No body force acts along x
+or y, so there this is the sum of all contact forces: zero if every pair obeys action = reaction.
+Along z the atoms' forces also hold the grains' weight and the top wall's load (and its damping,
+zero on average), so the contact part is ``fsum_z`` + weight + load. LIGGGHTS 3.8 keeps two
+tangential histories for a contact across a periodic boundary (newton off, which its granular pair
+style requires) and they can differ: the sums are not zero (docs/dem.md). Measured on a reduced
+shear_gravity run: the z part was -3 % of load + weight (so the bottom wall carried 3 % more).
 """
 from __future__ import annotations
 
@@ -20,7 +23,7 @@ import numpy as np
 import pandas as pd
 
 SERIES_COLUMNS = ("step", "time", "fbot_x", "fbot_z", "ftop_x", "ftop_z", "h_top", "ke", "max_overlap")
-PAIRSUM_COLUMNS = ("step", "time", "fsum_x", "fsum_y")
+PAIRSUM_COLUMNS = ("step", "time", "fsum_x", "fsum_y", "fsum_z")
 
 
 class SeriesError(ValueError):

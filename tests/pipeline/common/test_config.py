@@ -147,7 +147,7 @@ def test_a_rheometer_replica_shares_one_fill_and_replicas_do_not(config: dict) -
     assert {shared_fill_of("rheometer", rheometer, r) for r in states if r.endswith("-r2")} == {"fill-r2"}
     assert shared_fill_ids("shear_gravity", config["cases"]["shear_gravity"]) == []
     assert shared_fill_of("shear_gravity", config["cases"]["shear_gravity"], "r1") is None
-    # The fills' seeds differ (independent replicas), and no state's seed is a fill's.
+    # The replicas' fills have seeds of their own, none a state's.
     seeds = {fill: fill_physics(config, "rheometer", fill)["seed"] for fill in ("fill-r1", "fill-r2")}
     assert len(set(seeds.values())) == 2
     assert not set(seeds.values()) & {derived_seed(config["seed"], "rheometer", r) for r in states}
@@ -163,3 +163,18 @@ def test_a_rheometer_replica_shares_one_fill_and_replicas_do_not(config: dict) -
         assert fill_physics(run_config(config, "rheometer", run), "rheometer", "fill-r1") == before[1]
     with pytest.raises(ValueError, match="not a shared fill"):
         fill_owner_run("rheometer", rheometer, "fill-r3")
+
+
+def test_an_intruder_control_starts_from_its_sheared_twin_s_fill(config: dict) -> None:
+    intruder = config["cases"]["intruder"]
+    shallowest = min(intruder["depths_below_top"])
+    fills = [f"fill-D{shallowest:g}-r{k + 1}" for k in range(intruder["replicas"])]
+    assert shared_fill_ids("intruder", intruder) == fills
+    for k, fill in enumerate(fills, start=1):
+        assert shared_fill_of("intruder", intruder, f"D{shallowest:g}-r{k}") == fill
+        assert shared_fill_of("intruder", intruder, f"D{shallowest:g}-control-r{k}") == fill
+        assert fill_owner_run("intruder", intruder, fill) == f"D{shallowest:g}-r{k}"
+    deeper = [r for c, r in dem_runs(config) if c == "intruder" and not r.startswith(f"D{shallowest:g}-")]
+    assert deeper and all(shared_fill_of("intruder", intruder, r) is None for r in deeper)
+    intruder["control"] = False
+    assert shared_fill_ids("intruder", intruder) == []

@@ -1,7 +1,8 @@
-"""A fill shared by the states of a rheometer replica (pipeline/dem/shared_fill.py).
+"""Fills several runs start from (pipeline/dem/shared_fill.py).
 
-On the reduced workflow's real output (config/ci.yaml sets ``shared_fill``): every state starts
-from the one settled packing of its replica and pays no fill of its own, and the fill's work is
+On the reduced workflow's real output (config/ci.yaml sets ``cases.rheometer.shared_fill`` and an
+intruder control): every rheometer state starts from the one settled packing of its replica, the
+intruder's control from its sheared twin's, and none pays a fill of its own; the fill's work is
 recorded once. A fill made with other physics than a run's config gives it is refused.
 """
 from __future__ import annotations
@@ -42,6 +43,26 @@ def test_the_states_of_a_replica_shear_from_one_settled_packing(reduced_results:
     # Each state sheared to its own steady state: the states' wall speeds differ (their own I, P).
     speeds = [json.loads((s / "run.json").read_text())["wall_speed"] for s in states]
     assert len(set(speeds)) == len(speeds)
+
+
+@pytest.mark.liggghts
+def test_an_intruder_control_starts_from_its_sheared_twin_s_packing(reduced_results: Path) -> None:
+    dem = reduced_results / "dem" / "intruder"
+    fills = sorted(dem.glob("fill-*/fill.json"))
+    assert [f.parent.name for f in fills] == ["fill-D4-r1"]
+    fill = json.loads(fills[0].read_text())
+    twins = [json.loads((dem / run / "run.json").read_text()) for run in ("D4-r1", "D4-control-r1")]
+    for run, record in zip(("D4-r1", "D4-control-r1"), twins, strict=True):
+        assert (dem / run / "fill.restart").read_bytes() == (fills[0].parent / "fill.restart").read_bytes()
+        assert record["shared_fill"]["run"] == "fill-D4-r1" and record["steps_by_stage"]["fill"] == 0
+        # The rod the fill made, counted in the run's grains.
+        assert record["particle_count"] == fill["particle_count"]
+    # Same rod, same depth below the same top wall: the wall at rest is the only difference.
+    assert twins[0]["intruder"]["depth_over_d"] == twins[1]["intruder"]["depth_over_d"]
+    assert twins[0]["wall_speed"] > 0 and twins[1]["wall_speed"] == 0
+    # The deeper run pours its own.
+    deeper = json.loads((dem / "D7-r1" / "run.json").read_text())
+    assert deeper["shared_fill"] is None and deeper["steps_by_stage"]["fill"] > 0
 
 
 def _fake_fill(tmp_path: Path, config: dict, fill: str) -> Path:
