@@ -13,6 +13,10 @@ def shared_fill_record(wildcards):
     return targets.shared_fill_record(wildcards, config)
 
 
+def predecessor_record(wildcards):
+    return targets.predecessor_record(wildcards, config)
+
+
 def case_fields(wildcards):
     return targets.case_fields(wildcards, config)
 

@@ -37,6 +37,7 @@ rule dem:
     input:
         config=dem_case_config,
         fill=shared_fill_record,
+        start=predecessor_record,
     output:
         f"{ROOT}/dem/{{case}}/{{run}}/run.json",
     log:
@@ -46,11 +47,12 @@ rule dem:
     params:
         run_dir=targets.output_folder,
         fill_from=targets.fill_from_option,
+        start_from=targets.start_from_option,
     threads: targets.mpi_ranks(config)
     resources:
         tasks=targets.mpi_ranks(config),
         mpi=targets.mpi_launcher(config),
     shell:
-        "python -m pipeline.dem --config {input.config} --case {wildcards.case} --run {wildcards.run} {params.fill_from} "
+        "python -m pipeline.dem --config {input.config} --case {wildcards.case} --run {wildcards.run} {params.fill_from} {params.start_from} "
         "--out {params.run_dir} --mpi-launcher '{resources.mpi}' --mpi-ranks {resources.tasks} "
         "> {log} 2>&1"

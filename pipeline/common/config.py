@@ -89,6 +89,9 @@ def _check_consistency(config: dict[str, Any], source: str) -> None:
             raise ConfigError(f"{source}: cases.{name}.production_strain ({cap}) is below "
                               f"dem.precision.min_production_strain ({dem['precision']['min_production_strain']})")
         _check_log_speed_pair(case.get("precision", {}), f"{source}: cases.{name}.precision")
+        if "continue_above" in case and not case.get("shared_fill", False):
+            raise ConfigError(f"{source}: cases.{name}.continue_above: a state continues from a slower state's "
+                              "packing only within one replica's lineage, which needs shared_fill: true")
     precision = dem.get("precision")
     if precision is not None:
         _check_log_speed_pair(precision, f"{source}: dem.precision")
@@ -293,6 +296,29 @@ def fill_physics(config: dict[str, Any], case_name: str, fill: str) -> dict[str,
     return {"material": dict(config["material"]), "case": case_name, "fill": fill,
             "cell": {k: case[k] for k in FILL_CASE_KEYS if k in case},
             "seed": derived_seed(config["seed"], case_name, fill)}
+
+
+def predecessor_state(case_name: str, case: dict[str, Any], run: str) -> str | None:
+    """The rheometer state a state starts from, with ``continue_above``: for a target inertial
+    number above it, the replica's state with the next lower target I (of those, the pressure
+    nearest its own), whose final packing it shears from; None for every other run.
+
+    The fast states dilate far from the settled packing (nu about 0.6 to below 0.5), which a load
+    of a few Pa drives slowly; the next slower state has done most of it.
+    """
+    threshold = case.get("continue_above") if case_name == RHEOMETER else None
+    if threshold is None or size_study_cell(run) is not None:
+        return None
+    inertial, pressure = run_state(run)
+    if inertial <= threshold:
+        return None
+    replica = run.rsplit("-", 1)[1]
+    slower = [(i, p) for i, p in rheometer_states(case) if i < inertial]
+    if not slower:
+        return None
+    top = max(i for i, _ in slower)
+    i, p = min(((i, p) for i, p in slower if i == top), key=lambda state: abs(math.log(state[1] / pressure)))
+    return f"I{i:g}-P{p:g}-{replica}"
 
 
 def dem_fills(config: dict[str, Any]) -> list[tuple[str, str]]:

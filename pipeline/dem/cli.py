@@ -28,6 +28,8 @@ def main(argv: list[str] | None = None) -> int:
                         help="run a shared fill (--run fill-<...>: a rheometer replica's with cases.rheometer.shared_fill, an intruder "
                              "control's): pour and settle only, write fill.json")
     parser.add_argument("--fill-from", help="folder of the shared fill this run starts from (its fill.json)")
+    parser.add_argument("--start-from", help="folder of the finished slower rheometer state whose final packing this "
+                                             "state shears from (cases.rheometer.continue_above)")
     args = parser.parse_args(argv)
     config = load_config(args.config)
     if args.mpi_ranks is not None:
@@ -65,8 +67,14 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(f"--run {args.run!r} of case {args.case!r}: " + (
             f"starts from shared fill {expected_fill!r}: give --fill-from its folder"
             if expected_fill else "--fill-from: this run pours its own fill"))
-    runner = IntruderRun if intruder else PlanarShearRun
-    record = runner(config, args.case, args.run, out, fill_from=Path(args.fill_from) if args.fill_from else None).run()
+    fill_from = Path(args.fill_from) if args.fill_from else None
+    if args.start_from is not None and (intruder or case.get("continue_above") is None):
+        parser.error(f"--start-from: case {args.case!r} has no continue_above (only rheometer states continue from another's packing)")
+    if intruder:
+        record = IntruderRun(config, args.case, args.run, out, fill_from=fill_from).run()
+    else:
+        record = PlanarShearRun(config, args.case, args.run, out, fill_from=fill_from,
+                                start_from=Path(args.start_from) if args.start_from else None).run()
     atomic.write_json(record, out / "run.json")
     if intruder:
         rod = record["intruder"]

@@ -65,6 +65,8 @@ FILL_RECORD = "fill.json"
 #: What a run takes from a shared fill: the restart it shears from, the settled snapshot and the
 #: include files and log that made it (kept so the run folder shows its whole history).
 FILL_FILES = ("fill.restart", "settled.dump", "bottom_wall.in", "top_wall.in", "grains.in", "in.fill", "logs/fill.log")
+#: The restart a run continued from another's final packing starts its shear stage from.
+START_RESTART = "start.restart"
 #: Made by the fill of some geometries only (the intruder's rod).
 OPTIONAL_FILL_FILES = ("intruder.in",)
 
@@ -169,11 +171,14 @@ class PlanarShearRun:
     """One DEM run of a planar shear case (rheometer or shear with gravity)."""
 
     def __init__(self, config: dict[str, Any], case_name: str, run_id: str, run_dir: Path,
-                 fill_from: Path | None = None) -> None:
+                 fill_from: Path | None = None, start_from: Path | None = None) -> None:
         """``fill_from``: folder of a shared fill (``fill.json``, :mod:`pipeline.dem.shared_fill`)
-        the run starts from instead of pouring its own."""
+        the run starts from instead of pouring its own. ``start_from``: folder of a finished run
+        (a slower rheometer state of the same fill) whose final packing the shear stage starts
+        from instead of the fill's."""
         self.config = config
         self.fill_from = fill_from
+        self.start_from = start_from
         self.case_name = case_name
         self.run_id = run_id
         self.case = run_case(config["cases"][case_name], run_id)
@@ -196,6 +201,9 @@ class PlanarShearRun:
         # sections may differ on resume.
         fingerprint = {"config": run_physics(self.config, self.case_name, self.run_id), "case": self.case_name,
                        "run": self.run_id}
+        if self.start_from is not None:
+            # Chunks continued from another run's packing belong to that run's history too.
+            fingerprint["start_from"] = self._start_source()["fingerprint"]
         if self.state_path.exists():
             state = json.loads(self.state_path.read_text())
             if state.get("fingerprint") == fingerprint:
@@ -339,6 +347,35 @@ class PlanarShearRun:
             "shared": {"run": record["run"], "steps": record["fill"]["steps"], "wall_seconds": record["fill"]["wall_seconds"]}}
         self._save_state()
 
+    def _start_source(self) -> dict[str, Any]:
+        """The finished run ``start_from`` names: its id, state fingerprint and final restart."""
+        source = self.start_from
+        state_path, record_path = source / "state.json", source / "run.json"
+        if not record_path.is_file() or not state_path.is_file():
+            raise DEMRunError(f"{self.label}: --start-from {source}: not a finished DEM run (no run.json and state.json there)")
+        state = json.loads(state_path.read_text())
+        return {"run": state["fingerprint"]["run"], "fingerprint": state["fingerprint"],
+                "fill": state["fill"].get("shared", {}).get("run"), "restart": source / state["chunks"][-1]["restart"],
+                "chunks": len(state["chunks"])}
+
+    def _adopt_start(self) -> None:
+        """Copy the final restart of ``start_from`` into this run as the shear stage's start.
+
+        Only a run of the same case grown from the same shared fill qualifies: the walls, grains
+        and ids must be this run's own. Its velocities are replaced by this run's Couette ramp at
+        the first chunk, as after a fill; the steady-state test then decides, as always, when the
+        packing has become this run's.
+        """
+        source = self._start_source()
+        own_fill = self.state["fill"].get("shared", {}).get("run")
+        if source["fingerprint"]["case"] != self.case_name or own_fill is None or source["fill"] != own_fill:
+            raise DEMRunError(f"{self.label}: --start-from {self.start_from}: run {source['fingerprint']['case']}/{source['run']} "
+                              f"did not grow from this run's shared fill {own_fill!r} (its fill: {source['fill']!r})")
+        shutil.copy2(source["restart"], self.run_dir / START_RESTART)
+        self.state["start"] = {"run": source["run"], "restart": str(source["restart"].relative_to(self.start_from)),
+                               "after_chunks": source["chunks"]}
+        self._save_state()
+
     # ------------------------------------------------------------------------------- shearing
     def wall_speed(self) -> float:
         """Top-wall speed (m/s): given, or from the target inertial number of a rheometer run."""
@@ -413,7 +450,8 @@ class PlanarShearRun:
     def _run_chunk(self, kind: str, index: int, plan: dict[str, int]) -> dict[str, Any]:
         stage = f"{kind}_{index:03d}"
         chunks = self.state["chunks"]
-        restart_in = "fill.restart" if not chunks else chunks[-1]["restart"]
+        first = START_RESTART if "start" in self.state else "fill.restart"
+        restart_in = first if not chunks else chunks[-1]["restart"]
         restart_out = f"restart/{stage}.restart"
         (self.run_dir / "restart").mkdir(exist_ok=True)
         (self.run_dir / "series").mkdir(exist_ok=True)
@@ -508,6 +546,11 @@ class PlanarShearRun:
                 self._fill()
             print(f"{self.label}: fill and settle done, {self.state['fill']['settled_gap'] / self.mat['d']:.1f} d "
                   f"between the walls, {self.state['wall_seconds']:.1f} s", flush=True)
+        # Committed before any chunk, so a resumed run never shears from the fill instead.
+        if self.start_from is not None and "start" not in self.state:
+            if self.state["chunks"]:
+                raise DEMRunError(f"{self.label}: chunks committed without the start from {self.start_from} (state.json)")
+            self._adopt_start()
         plan = self._chunk_plan()
         window = self.dem["steady_window_chunks"]
         while self.state["steady"] is None:
@@ -693,6 +736,8 @@ class PlanarShearRun:
             "steps_by_stage": self.steps_by_stage(),
             # The shared fill this run started from (its steps and seconds, counted once there), or None.
             "shared_fill": self.state["fill"].get("shared"),
+            # The run whose final packing the shear stage started from (continue_above), or None.
+            "started_from": self.state.get("start"),
             "wall_seconds_by_stage": self.seconds_by_stage(),
             "chunk_steps": plan["chunk_steps"],
             "dump_every": plan["dump_every"],

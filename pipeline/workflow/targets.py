@@ -10,8 +10,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from pipeline.common.config import (RHEOMETER, ConfigError, calibration_runs, dem_runs, fill_owner_run, run_config, shared_fill_of,
-                                    validate_config)
+from pipeline.common.config import (RHEOMETER, ConfigError, calibration_runs, dem_runs, fill_owner_run, predecessor_state, run_config,
+                                    shared_fill_of, validate_config)
 from pipeline.common.layout import fields_paths, root
 
 
@@ -92,6 +92,17 @@ def shared_fill_record(wildcards: Any, config: dict[str, Any]) -> list[str]:
 def fill_from_option(wildcards: Any, input: Any) -> str:  # noqa: A002 (Snakemake's name)
     """``--fill-from <folder>`` for a run with a shared fill among its inputs, else nothing."""
     return f"--fill-from {shlex.quote(str(Path(input.fill[0]).parent))}" if input.fill else ""
+
+
+def predecessor_record(wildcards: Any, config: dict[str, Any]) -> list[str]:
+    """Input function body: ``run.json`` of the slower state a rheometer state continues from, if any."""
+    previous = predecessor_state(wildcards.case, config["cases"][wildcards.case], wildcards.run)
+    return [str(root(config) / "dem" / wildcards.case / previous / "run.json")] if previous else []
+
+
+def start_from_option(wildcards: Any, input: Any) -> str:  # noqa: A002 (Snakemake's name)
+    """``--start-from <folder>`` for a run with a predecessor among its inputs, else nothing."""
+    return f"--start-from {shlex.quote(str(Path(input.start[0]).parent))}" if input.start else ""
 
 
 def nonlocal_calibration_fields(config: dict[str, Any]) -> str:

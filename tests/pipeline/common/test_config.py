@@ -16,6 +16,7 @@ from pipeline.common.config import (
     fill_physics,
     liggghts_seed,
     load_config,
+    predecessor_state,
     run_config,
     run_state,
     shared_fill_ids,
@@ -178,3 +179,19 @@ def test_an_intruder_control_starts_from_its_sheared_twin_s_fill(config: dict) -
     assert deeper and all(shared_fill_of("intruder", intruder, r) is None for r in deeper)
     intruder["control"] = False
     assert shared_fill_ids("intruder", intruder) == []
+
+
+def test_a_fast_rheometer_state_continues_from_the_next_slower_one(config: dict) -> None:
+    rheometer = config["cases"]["rheometer"]
+    rheometer["continue_above"] = 0.05
+    rheometer["extra_states"].append({"inertial_number": 0.2, "wall_pressure": 20.0})
+    chain = {run: predecessor_state("rheometer", rheometer, run) for c, run in dem_runs(config) if c == "rheometer"}
+    # Above 0.05 only, each from the largest slower target I, of two at one I the nearer pressure.
+    assert chain["I0.02-P200-r1"] is None
+    assert chain["I0.07-P200-r1"] == "I0.02-P200-r1" and chain["I0.07-P600-r1"] == "I0.02-P200-r1"
+    assert chain["I0.2-P200-r1"] == "I0.07-P200-r1" and chain["I0.2-P20-r1"] == "I0.07-P200-r1"
+    assert chain["I0.3-P50-r1"] == "I0.2-P20-r1"  # |log(50/20)| < |log(50/200)|
+    assert predecessor_state("shear_gravity", config["cases"]["shear_gravity"], "r1") is None
+    del rheometer["shared_fill"]
+    with pytest.raises(ConfigError, match="cases.rheometer.continue_above: .* needs shared_fill: true"):
+        validate_config(config, "my.yaml")

@@ -65,6 +65,35 @@ def test_an_intruder_control_starts_from_its_sheared_twin_s_packing(reduced_resu
     assert deeper["shared_fill"] is None and deeper["steps_by_stage"]["fill"] > 0
 
 
+@pytest.mark.liggghts
+def test_a_fast_state_shears_from_the_slower_state_s_final_packing(reduced_results: Path) -> None:
+    dem = reduced_results / "dem" / "rheometer"
+    fast, slow = (json.loads((dem / run / "run.json").read_text()) for run in ("I0.3-P50-r1", "I0.2-P200-r1"))
+    slow_state = json.loads((dem / "I0.2-P200-r1" / "state.json").read_text())
+    assert fast["started_from"] == {"run": "I0.2-P200-r1", "restart": slow_state["chunks"][-1]["restart"],
+                                    "after_chunks": len(slow_state["chunks"])}
+    assert (dem / "I0.3-P50-r1" / "start.restart").read_bytes() == (dem / "I0.2-P200-r1" / slow_state["chunks"][-1]["restart"]).read_bytes()
+    assert slow["started_from"] is None
+    # It then reached a steady state of its own, at its own load: the wall force over the load
+    # is the state's friction, as for every state.
+    assert fast["steady_state_test"]["stationary"]
+    assert fast["wall_pressure"] == 50.0 and slow["wall_pressure"] == 200.0
+
+
+def test_a_start_from_another_fill_is_refused(tmp_path: Path) -> None:
+    config = load_config(REPO / "config" / "ci.yaml")
+    state = run_config(config, "rheometer", "I0.3-P50-r1")
+    source = _fake_fill(tmp_path, state, "fill-r1")
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "run.json").write_text("{}")
+    (other / "state.json").write_text(json.dumps({"fingerprint": {"case": "rheometer", "run": "I0.2-P200-r1"},
+                                                  "fill": {"steps": 5}, "chunks": [{"restart": "restart/x.restart"}]}))
+    run = PlanarShearRun(state, "rheometer", "I0.3-P50-r1", tmp_path / "run", fill_from=source, start_from=other)
+    with pytest.raises(DEMRunError, match=r"did not grow from this run's shared fill 'fill-r1' \(its fill: None\)"):
+        run.run()
+
+
 def _fake_fill(tmp_path: Path, config: dict, fill: str) -> Path:
     """A fill folder with the record a run checks and empty stand-ins for the files it copies
     (the refusal happens before any copy or LIGGGHTS call)."""
@@ -73,7 +102,7 @@ def _fake_fill(tmp_path: Path, config: dict, fill: str) -> Path:
         (source / name).parent.mkdir(parents=True, exist_ok=True)
         (source / name).write_text("")
     record = {"run": fill, "physics": fill_physics(config, "rheometer", fill),
-              "fill": {"steps": 10, "wall_seconds": 1.0}}
+              "fill": {"steps": 10, "wall_seconds": 1.0, "settled_gap": 0.03}}
     (source / FILL_RECORD).write_text(json.dumps(record))
     return source
 

@@ -46,10 +46,10 @@ RANKS = 2
 CANCELLED = ("shear_gravity", "r1")
 #: The DEM runs LIGGGHTS computes through SLURM: the cancelled one, an uninterrupted one of the
 #: same case (its dumps are compared byte for byte), an intruder run (the other LIGGGHTS input)
-#: and a rheometer state. Every other DEM run's folder is the local reduced run's, copied before
+#: and a rheometer state (the one that continues from a slower state's packing, copied in). Every other DEM run's folder is the local reduced run's, copied before
 #: the workflow starts (so the DEM is not paid twice in the suite); every rule downstream of the
 #: DEM, the dump stores included, runs through SLURM for all runs.
-THROUGH_SLURM = (CANCELLED, ("shear_gravity", "r2"), ("intruder", "D4-r1"), ("rheometer", "I0.2-P200-r1"))
+THROUGH_SLURM = (CANCELLED, ("shear_gravity", "r2"), ("intruder", "D4-r1"), ("rheometer", "I0.3-P50-r1"))
 
 
 def slurm_command(out: Path) -> list[str]:
