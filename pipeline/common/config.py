@@ -92,6 +92,11 @@ def _check_consistency(config: dict[str, Any], source: str) -> None:
         if "continue_above" in case and not case.get("shared_fill", False):
             raise ConfigError(f"{source}: cases.{name}.continue_above: a state continues from a slower state's "
                               "packing only within one replica's lineage, which needs shared_fill: true")
+        slowest = min((i for i, _ in rheometer_states(case)), default=None) if name == RHEOMETER else None
+        # A DEM run's own config holds its one state: the chain is checked on the whole config.
+        if "continue_above" in case and len(rheometer_states(case)) > 1 and case["continue_above"] < slowest:
+            raise ConfigError(f"{source}: cases.{name}.continue_above ({case['continue_above']:g}) is below the slowest "
+                              f"state's target I ({slowest:g}): that state would have no slower one to start from")
     precision = dem.get("precision")
     if precision is not None:
         _check_log_speed_pair(precision, f"{source}: dem.precision")

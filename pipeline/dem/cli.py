@@ -6,7 +6,7 @@ from pathlib import Path
 
 from pipeline.common import atomic
 from pipeline.common.cli import positive_int
-from pipeline.common.config import dem_runs, load_config, shared_fill_ids, shared_fill_of, size_study_cell
+from pipeline.common.config import dem_runs, load_config, run_state, shared_fill_ids, shared_fill_of, size_study_cell
 from pipeline.dem.intruder_run import IntruderRun, YieldProbe
 from pipeline.dem.planar_run import FILL_RECORD, PlanarShearRun
 from pipeline.dem.shared_fill import run_shared_fill
@@ -62,14 +62,18 @@ def main(argv: list[str] | None = None) -> int:
         result = YieldProbe(config, args.case, args.run, out).run()
         print(f"yield coefficient between {result['largest_held_coefficient']} and {result['first_moving_coefficient']} (x p D L)")
         return 0
-    expected_fill = shared_fill_of(args.case, case, args.run)
-    if (args.fill_from is None) != (expected_fill is None):
-        parser.error(f"--run {args.run!r} of case {args.case!r}: " + (
-            f"starts from shared fill {expected_fill!r}: give --fill-from its folder"
-            if expected_fill else "--fill-from: this run pours its own fill"))
+    # Without --fill-from a run whose fill is shared pours that same fill itself (its seed is the fill's).
+    if args.fill_from is not None and shared_fill_of(args.case, case, args.run) is None:
+        parser.error(f"--fill-from: run {args.run!r} of case {args.case!r} pours its own fill (it shares none)")
     fill_from = Path(args.fill_from) if args.fill_from else None
-    if args.start_from is not None and (intruder or case.get("continue_above") is None):
-        parser.error(f"--start-from: case {args.case!r} has no continue_above (only rheometer states continue from another's packing)")
+    chained = (not intruder and case.get("continue_above") is not None and size_study_cell(args.run) is None
+               and run_state(args.run)[0] > case["continue_above"])
+    if chained and args.start_from is None:
+        parser.error(f"--run {args.run!r}: its target I is above cases.{args.case}.continue_above ({case['continue_above']:g}), so it "
+                     "shears from the next slower state's final packing: give --start-from that state's folder")
+    if args.start_from is not None and not chained:
+        parser.error(f"--start-from: run {args.run!r} of case {args.case!r} starts from its fill "
+                     "(only rheometer states above continue_above continue from another's packing)")
     if intruder:
         record = IntruderRun(config, args.case, args.run, out, fill_from=fill_from).run()
     else:

@@ -38,7 +38,7 @@ import pandas as pd
 
 from pipeline.common import atomic
 from pipeline.dem import liggghts_render as render
-from pipeline.common.config import derived_seed, intruder_run, mean_grain_volume
+from pipeline.common.config import intruder_run, mean_grain_volume
 from pipeline.dem.liggghts_log import DEMRunError
 from pipeline.dem.planar_run import PlanarShearRun
 
@@ -135,11 +135,9 @@ class IntruderRun(PlanarShearRun):
     def __init__(self, config: dict[str, Any], case_name: str, run_id: str, run_dir: Path,
                  fill_from: Path | None = None) -> None:
         super().__init__(config, case_name, run_id, run_dir, fill_from=fill_from)
-        self.depth_over_d, self.control, replica = intruder_run(run_id)
-        if self.control:
-            # The sheared run's seed: with the shared fill (fill-D<depth>-r<k>) both start from one
-            # settled packing, walls and rod, so the control differs by the wall at rest only.
-            self.seed = derived_seed(config["seed"], case_name, f"D{self.depth_over_d:g}-{replica}")
+        # A control and its sheared twin share their fill (fill-D<depth>-r<k>) and so its seed:
+        # one settled packing, walls and rod; the control differs by the wall at rest only.
+        self.depth_over_d, self.control, _ = intruder_run(run_id)
         d = self.mat["d"]
         self.rod_diameter = float(self.case["rod_diameter"]) * d
         self.rod_length = float(self.case["cell_y"]) * d

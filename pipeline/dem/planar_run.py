@@ -189,7 +189,10 @@ class PlanarShearRun:
         self.label = f"DEM run {case_name}/{run_id}"
         self.design = contact_design(config)
         self.launcher = Launcher(self.dem["liggghts"], self.dem["mpi_launcher"], self.dem["mpi_ranks"])
-        self.seed = derived_seed(config["seed"], case_name, run_id)
+        # A run whose fill is shared has the fill's seed: alone (no fill_from) it pours that very
+        # packing itself, so it is the same run inside the workflow and out of it.
+        fill = shared_fill_of(case_name, self.case, run_id)
+        self.seed = fill_physics(config, case_name, fill)["seed"] if fill else derived_seed(config["seed"], case_name, run_id)
         #: Normal stress of the top wall (Pa): per run for the rheometer, per case otherwise.
         self.wall_pressure = run_state(run_id)[1] if case_name == "rheometer" else float(self.case["wall_pressure"])
         self.state_path = run_dir / "state.json"

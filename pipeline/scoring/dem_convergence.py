@@ -73,13 +73,21 @@ def noise_rows(reps: list[xr.Dataset]) -> dict[str, float]:
 
 
 def truncated_fields(result_ds: xr.Dataset, sums: np.ndarray, n: int, blocks: int) -> xr.Dataset:
-    """The profile fields of the first ``n`` snapshots (same grid and attributes)."""
+    """The profile fields of the first ``n`` snapshots (same grid and attributes).
+
+    Errors as the fields file's: the time error of the shorter window, and for nu not below the
+    frozen structure's error of ``result_ds`` (``nu_err_structure``), which no averaging time
+    lowers; so at ``n`` = all snapshots the errors, and what they mask, are the scored ones.
+    """
     d, rho_s = float(result_ds.attrs["d"]), float(result_ds.attrs["rho_s"])
     fields, errors, _ = block_average(sums[:n], blocks, d, rho_s)
     ds = xr.Dataset(coords={"z": result_ds.z}, attrs=dict(result_ds.attrs))
     for name in ("u_x", "nu", "mu"):
         ds[name] = ("z", fields[name])
-        ds[f"{name}_err"] = ("z", errors[name])
+        err = np.asarray(errors[name], dtype=float)
+        if f"{name}_err_structure" in result_ds:
+            err = np.fmax(err, result_ds[f"{name}_err_structure"].values)
+        ds[f"{name}_err"] = ("z", err)
     return ds
 
 
@@ -109,6 +117,8 @@ def averaging_sweep(config: dict[str, Any], case: str, run_dirs: list[Path]) -> 
             # The displacement-based creep speed over the same shorter window (the creep metrics use it).
             u, err = displacement_velocity(particles, chosen[:n], particles.timesteps[chosen[:n]] * dt, kernel,
                                            ds.z.values, blocks)
+            if "u_x_disp_err_structure" in result.dataset:
+                err = np.fmax(err, result.dataset["u_x_disp_err_structure"].values)
             reps.append(ds.assign(u_x_disp=("z", u), u_x_disp_err=("z", err)))
         costs = [t + share * p for share, (t, p) in zip(used, map(run_cost, runs))]
         strain = float(np.mean([production_strain(r) * share for r, share in zip(runs, used)]))

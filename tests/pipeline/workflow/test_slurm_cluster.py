@@ -61,8 +61,8 @@ def slurm_command(out: Path) -> list[str]:
         "--config", f"output_root={out}", "--jobs", "4",
         "--default-resources", "slurm_partition=test", "mem_mb=1000", "runtime=30", "cpus_per_task=1", "tasks=1",
         # --set-resources replaces the profile's whole set: the DEM's launcher is named again.
-        "--set-resources", "dem:mpi=srun", f"dem:tasks={RANKS}", "dem:cpus_per_task=1", "dem:mem_mb_per_cpu=1000",
-        "dem:mem_mb=0", "dem:runtime=30",
+        "--set-resources", *[f"{rule}:{item}" for rule in ("dem", "dem_fill")
+                             for item in ("mpi=srun", f"tasks={RANKS}", "cpus_per_task=1", "mem_mb_per_cpu=1000", "mem_mb=0", "runtime=30")],
         "dump_store:mem_mb=2000", "fields:mem_mb=2000", "calibrate:mem_mb=2000", "report:mem_mb=2000",
         "failure_catalogue:runtime=30",
         "--slurm-status-command", "squeue", "--slurm-logdir", str(out / "logs" / "slurm"),

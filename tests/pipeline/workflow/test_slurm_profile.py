@@ -9,7 +9,7 @@ from pathlib import Path
 
 import yaml
 
-from pipeline.common.config import dem_runs, load_config
+from pipeline.common.config import dem_fills, dem_runs, load_config
 
 REPO = Path(__file__).resolve().parents[3]
 PROFILE = REPO / "profiles" / "slurm"
@@ -22,9 +22,10 @@ def test_profile_resources_name_existing_rules() -> None:
     rules = {name for f in sources for name in re.findall(r"^rule (\w+):", f.read_text(), re.M)}
     # A typo in a rule name would be silently ignored by Snakemake.
     assert set(profile["set-resources"]) <= rules, set(profile["set-resources"]) - rules
-    dem = profile["set-resources"]["dem"]
-    # The SLURM plugin refuses MPI jobs without tasks > 1; a DEM job also needs a runtime and memory.
-    assert dem["mpi"] == "srun" and dem["tasks"] > 1 and dem["runtime"] > 0 and dem["mem_mb_per_cpu"] > 0
+    for rule in ("dem", "dem_fill"):
+        dem = profile["set-resources"][rule]
+        # The SLURM plugin refuses MPI jobs without tasks > 1; a DEM job also needs a runtime and memory.
+        assert dem["mpi"] == "srun" and dem["tasks"] > 1 and dem["runtime"] > 0 and dem["mem_mb_per_cpu"] > 0, rule
     assert {"mem_mb", "runtime"} <= set(profile["default-resources"])
 
 
@@ -35,8 +36,9 @@ def test_dry_run_through_the_profile_gives_the_dem_jobs_their_ranks(tmp_path: Pa
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
     out = proc.stdout + proc.stderr
     dem_commands = [line for line in out.splitlines() if "-m pipeline.dem " in line]
-    runs = dem_runs(load_config(REPO / "config" / "ci.yaml"))
-    assert len(dem_commands) == len(runs)
+    config = load_config(REPO / "config" / "ci.yaml")
+    # Every DEM run, and every fill several runs start from.
+    assert len(dem_commands) == len(dem_runs(config)) + len(dem_fills(config)) > len(dem_runs(config))
     tasks = yaml.safe_load((PROFILE / "config.yaml").read_text())["set-resources"]["dem"]["tasks"]
     for line in dem_commands:
         assert f"--mpi-launcher 'srun' --mpi-ranks {tasks}" in line, line
