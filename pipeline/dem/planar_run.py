@@ -358,7 +358,7 @@ class PlanarShearRun:
             raise DEMRunError(f"{self.label}: --start-from {source}: not a finished DEM run (no run.json and state.json there)")
         state = json.loads(state_path.read_text())
         return {"run": state["fingerprint"]["run"], "fingerprint": state["fingerprint"],
-                "fill": state["fill"].get("shared", {}).get("run"), "restart": source / state["chunks"][-1]["restart"],
+                "seed": json.loads(record_path.read_text()).get("seed"), "restart": source / state["chunks"][-1]["restart"],
                 "chunks": len(state["chunks"])}
 
     def _adopt_start(self) -> None:
@@ -370,10 +370,11 @@ class PlanarShearRun:
         packing has become this run's.
         """
         source = self._start_source()
-        own_fill = self.state["fill"].get("shared", {}).get("run")
-        if source["fingerprint"]["case"] != self.case_name or own_fill is None or source["fill"] != own_fill:
+        # The lineage is the shared fill's seed, whether a run copied that fill or poured it itself.
+        own_fill = shared_fill_of(self.case_name, self.case, self.run_id)
+        if source["fingerprint"]["case"] != self.case_name or own_fill is None or source["seed"] != self.seed:
             raise DEMRunError(f"{self.label}: --start-from {self.start_from}: run {source['fingerprint']['case']}/{source['run']} "
-                              f"did not grow from this run's shared fill {own_fill!r} (its fill: {source['fill']!r})")
+                              f"did not grow from this run's shared fill {own_fill!r} (its seed {source['seed']}, the fill's {self.seed})")
         shutil.copy2(source["restart"], self.run_dir / START_RESTART)
         self.state["start"] = {"run": source["run"], "restart": str(source["restart"].relative_to(self.start_from)),
                                "after_chunks": source["chunks"]}

@@ -89,11 +89,11 @@ def test_a_start_from_another_fill_is_refused(tmp_path: Path) -> None:
     source = _fake_fill(tmp_path, state, "fill-r1")
     other = tmp_path / "other"
     other.mkdir()
-    (other / "run.json").write_text("{}")
+    (other / "run.json").write_text(json.dumps({"seed": 12345}))
     (other / "state.json").write_text(json.dumps({"fingerprint": {"case": "rheometer", "run": "I0.2-P200-r1"},
                                                   "fill": {"steps": 5}, "chunks": [{"restart": "restart/x.restart"}]}))
     run = PlanarShearRun(state, "rheometer", "I0.3-P50-r1", tmp_path / "run", fill_from=source, start_from=other)
-    with pytest.raises(DEMRunError, match=r"did not grow from this run's shared fill 'fill-r1' \(its fill: None\)"):
+    with pytest.raises(DEMRunError, match=r"did not grow from this run's shared fill 'fill-r1' \(its seed 12345, the fill's \d+\)"):
         run.run()
 
 
