@@ -12,10 +12,11 @@ What it shows:
 - a DEM job killed by SLURM (``scancel`` while it runs a chunk) fails loudly, keeps its
   committed chunks, and the workflow's retry (profile ``retries``) completes it from there: its
   fill and early chunks are not run again.
-LIGGGHTS runs through SLURM for four DEM runs (:data:`THROUGH_SLURM`); the others are the local
-reduced run's folders, copied in before the start (the dry run checks that exactly the four are
-left to do), so the suite does not pay the reduced DEM twice. Every rule after the DEM (dump
-stores, fields, calibration, models, scores) runs through SLURM for every run.
+LIGGGHTS runs through SLURM for three DEM runs (:data:`THROUGH_SLURM`), and their dump stores and
+fields; the other runs' folders, dump stores and fields are the local reduced run's, copied in
+before the start (a dry run checks that exactly the three are left to do), so the suite does not
+pay the reduced DEM and its coarse-graining twice. Every rule runs through SLURM at least once, and
+every rule after the fields (calibration, models, scores) for every case.
 Where SLURM cannot be started here (not root, packages unavailable) the test fails with the
 reason; it never skips.
 """
@@ -44,12 +45,11 @@ PROFILE = REPO / "profiles" / "slurm"
 RANKS = 2
 #: The DEM run the test cancels: the longest of the reduced set, so it is caught inside a chunk.
 CANCELLED = ("shear_gravity", "r1")
-#: The DEM runs LIGGGHTS computes through SLURM: the cancelled one, an uninterrupted one of the
-#: same case (its dumps are compared byte for byte), an intruder run (the other LIGGGHTS input)
-#: and a rheometer state (the one that continues from a slower state's packing, copied in). Every other DEM run's folder is the local reduced run's, copied before
-#: the workflow starts (so the DEM is not paid twice in the suite); every rule downstream of the
-#: DEM, the dump stores included, runs through SLURM for all runs.
-THROUGH_SLURM = (CANCELLED, ("shear_gravity", "r2"), ("intruder", "D4-r1"), ("rheometer", "I0.3-P50-r1"))
+#: The DEM runs LIGGGHTS computes through SLURM: the cancelled one (resumed, its dumps are compared
+#: byte for byte), an intruder run (the other LIGGGHTS input) and a rheometer state (the one that
+#: continues from a slower state's packing, copied in). Every other run's folder, dump store and
+#: fields are the local reduced run's, copied before the workflow starts.
+THROUGH_SLURM = (CANCELLED, ("intruder", "D4-r1"), ("rheometer", "I0.3-P50-r1"))
 
 
 def slurm_command(out: Path) -> list[str]:
@@ -77,30 +77,46 @@ def slurm_command(out: Path) -> list[str]:
     ]
 
 
-def planned_dem_jobs(out: Path, env: dict) -> set[tuple[str, str]]:
-    """The DEM jobs a dry run of the SLURM command plans (it also writes the per-run configs
-    into ``out``, as the real run will, unchanged)."""
+def planned_jobs(out: Path, env: dict) -> dict[str, set[tuple[str, str]]]:
+    """The per-run jobs a dry run of the SLURM command plans: ``dem`` (case, run) pairs, and the
+    runs whose dump store or fields are to be made (it also writes the per-run configs into
+    ``out``, as the real run will, unchanged)."""
     proc = subprocess.run([*slurm_command(out), "--dry-run", "--printshellcmds"], cwd=REPO, env=env,
                           capture_output=True, text=True, check=False, timeout=600)
     if proc.returncode != 0:
         pytest.fail(f"dry run of the SLURM workflow failed:\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}")
-    found = re.findall(r"python -m pipeline\.dem --config \S+ --case (\S+) --run (\S+)", proc.stdout + proc.stderr)
-    return set(found)
+    text = proc.stdout + proc.stderr
+    run_dirs = re.findall(r"python -m pipeline\.dumps \S*/dem/([^/\s]+)/([^/\s]+) ", text)
+    run_dirs += re.findall(r"python -m pipeline\.coarse_graining \S+ .*?--run-dir \S*/dem/([^/\s]+)/([^/\s]+) ", text)
+    return {"dem": set(re.findall(r"python -m pipeline\.dem --config \S+ --case (\S+) --run (\S+)", text)),
+            "per_run": set(run_dirs)}
 
 
-def seed_dem_runs(local: Path, out: Path, env: dict) -> None:
-    """Copy the local reduced run's DEM folders, all but :data:`THROUGH_SLURM`, into ``out``
-    (without their dump stores, which the workflow rebuilds), newer than the per-run configs the
-    workflow writes, so Snakemake takes them as done; check that exactly the others are planned."""
-    planned = planned_dem_jobs(out, env)
+def seed_local_runs(local: Path, out: Path, env: dict) -> None:
+    """Copy the local reduced run's results of every DEM run but :data:`THROUGH_SLURM` into ``out``:
+    the DEM folder with its dump store, and its fields, newer than the per-run configs the workflow
+    writes and each newer than what it is made from, so Snakemake takes them as done. Check that
+    exactly those runs are left to do, by a dry run through the profile."""
+    planned = planned_jobs(out, env)["dem"]
     copied = sorted(planned - set(THROUGH_SLURM))
     for case, run in copied:
-        shutil.copytree(local / "dem" / case / run, out / "dem" / case / run, ignore=shutil.ignore_patterns("dumps.nc"))
-    # Shared fills first: a run is older than its fill's record would be rerun.
-    for case, run in sorted(copied, key=lambda job: not job[1].startswith("fill-")):
-        (out / "dem" / case / run / ("fill.json" if run.startswith("fill-") else "run.json")).touch()
-    left = planned_dem_jobs(out, env)
-    assert left == set(THROUGH_SLURM), f"planned before seeding {sorted(planned)}, after {sorted(left)}"
+        shutil.copytree(local / "dem" / case / run, out / "dem" / case / run)
+        for folder in ("fields", "fields_xz"):
+            for path in sorted((local / folder / case).glob(f"{run}.*")):
+                (out / folder / case).mkdir(parents=True, exist_ok=True)
+                shutil.copy2(path, out / folder / case / path.name)
+    # In the order the workflow makes them: shared fills, runs, dump stores, fields.
+    stages = [lambda c, r: [out / "dem" / c / r / "fill.json"], lambda c, r: [out / "dem" / c / r / "run.json"],
+              lambda c, r: [out / "dem" / c / r / "dumps.nc"],
+              lambda c, r: sorted((out / "fields" / c).glob(f"{r}.*")) + sorted((out / "fields_xz" / c).glob(f"{r}.*"))]
+    for stage in stages:
+        for case, run in copied:
+            for path in stage(case, run):
+                if path.exists():
+                    path.touch()
+    left = planned_jobs(out, env)
+    assert left["dem"] == set(THROUGH_SLURM), f"planned before seeding {sorted(planned)}, after {sorted(left['dem'])}"
+    assert left["per_run"] == set(THROUGH_SLURM), f"dump stores and fields still planned for {sorted(left['per_run'])}"
 
 
 def cancel_mid_chunk(cluster: Cluster, run_dir: Path, seen: dict, timeout: float = 900.0) -> None:
@@ -130,7 +146,7 @@ def slurm_run(tmp_path_factory: pytest.TempPathFactory, reduced_results: Path) -
     base = tmp_path_factory.mktemp("slurm")
     out = base / "results"
     with local_cluster(base / "cluster") as cluster:
-        seed_dem_runs(reduced_results, out, cluster.env)
+        seed_local_runs(reduced_results, out, cluster.env)
         seen: dict = {}
         watcher = threading.Thread(target=cancel_mid_chunk, args=(cluster, out / "dem" / CANCELLED[0] / CANCELLED[1], seen),
                                    daemon=True)
@@ -187,8 +203,9 @@ def test_scores_equal_the_local_run(slurm_run: dict, reduced_results: Path) -> N
         a, b = both[f"{name}_local"].to_numpy(float), both[f"{name}_slurm"].to_numpy(float)
         np.testing.assert_array_equal(np.isfinite(a), np.isfinite(b))
         np.testing.assert_allclose(a[np.isfinite(a)], b[np.isfinite(b)], rtol=1e-12, atol=0, err_msg=name)
-    # And the DEM itself: every particle dump of a run that was not interrupted is byte-identical.
-    run = ("shear_gravity", "r2")
+    # And the DEM itself: every particle dump is byte-identical, of the run SLURM cancelled and
+    # resumed too (every chunk, the cancelled one again, starts from a committed restart file).
+    run = CANCELLED
     for dump in sorted((reduced_results / "dem" / run[0] / run[1] / "dumps").glob("particles_*.dump")):
         assert dump.read_bytes() == (slurm_run["out"] / "dem" / run[0] / run[1] / "dumps" / dump.name).read_bytes(), dump.name
 
