@@ -9,6 +9,7 @@ rule report:
     input:
         config=CONFIG_JSON,
         runs=layout.run_json_paths(config),
+        fills=layout.shared_fill_paths(config),
         fields=layout.fields_paths(config, size_study=True),
         params=f"{ROOT}/calibration/params.json",
         models=layout.model_paths(config),

@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from pipeline.common.config import dem_runs, size_study_cell
+from pipeline.common.config import dem_fills, dem_runs, size_study_cell
 
 
 #: Figures the report writes as PNG files (flagged with Snakemake's report()).
@@ -25,6 +25,11 @@ def root(config: dict[str, Any]) -> Path:
 def run_json_paths(config: dict[str, Any]) -> list[str]:
     """``dem/{case}/{run}/run.json`` of every DEM run."""
     return [str(root(config) / "dem" / case / run / "run.json") for case, run in dem_runs(config)]
+
+
+def shared_fill_paths(config: dict[str, Any]) -> list[str]:
+    """``dem/{case}/{fill}/fill.json`` of every fill several runs start from."""
+    return [str(root(config) / "dem" / case / fill / "fill.json") for case, fill in dem_fills(config)]
 
 
 def report_figures(config: dict[str, Any]) -> list[str]:

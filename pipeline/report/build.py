@@ -26,7 +26,8 @@ from pipeline.common import atomic
 from pipeline.common.config import dem_runs, load_config
 from pipeline.report.html import figure_html, page, table_html
 from pipeline.common.provenance import software_versions
-from pipeline.common.layout import convergence_cases, convergence_paths, fields_paths, intruder_cases, model_names, scored_cases
+from pipeline.common.layout import (convergence_cases, convergence_paths, fields_paths, intruder_cases, model_names, scored_cases,
+                                    shared_fill_paths)
 from pipeline.dem.wall_series import read_wall_series
 from pipeline.scoring.scores import align_replicas
 
@@ -518,13 +519,19 @@ def dem_table(runs: list[dict[str, Any]]) -> pd.DataFrame:
     } for r in runs])
 
 
-def dem_cost_table(runs: list[dict[str, Any]]) -> pd.DataFrame:
-    """Per case: runs, particle-steps (grains x steps) and LIGGGHTS core-seconds, and the totals."""
-    frame = pd.DataFrame([{"case": r["case"], "runs": 1, "particle-steps": float(r["particle_count"]) * float(r["steps"]),
-                           "core-seconds": float(r["wall_clock_seconds"]) * int(r["mpi_ranks"])} for r in runs])
+def dem_cost_table(runs: list[dict[str, Any]], fills: list[dict[str, Any]] = ()) -> pd.DataFrame:
+    """Per case: runs, shared fills, particle-steps (grains x steps, fills included) and LIGGGHTS
+    core-seconds, and the totals. A fill several runs start from is counted once, in its record."""
+    frame = pd.DataFrame(
+        [{"case": r["case"], "runs": 1, "shared fills": 0,
+          "particle-steps": float(r["particle_count"]) * (float(r["steps"]) + float(r.get("steps_by_stage", {}).get("fill", 0))),
+          "core-seconds": float(r["wall_clock_seconds"]) * int(r["mpi_ranks"])} for r in runs]
+        + [{"case": f["case"], "runs": 0, "shared fills": 1,
+            "particle-steps": float(f["particle_count"]) * float(f["steps_by_stage"]["fill"]),
+            "core-seconds": float(f["wall_seconds_by_stage"]["fill"]) * int(f["mpi_ranks"])} for f in fills])
     table = frame.groupby("case", sort=False).sum().reset_index()
-    total = pd.DataFrame([{"case": "all", "runs": int(table.runs.sum()), "particle-steps": float(table["particle-steps"].sum()),
-                           "core-seconds": float(table["core-seconds"].sum())}])
+    total = pd.DataFrame([{"case": "all", "runs": int(table.runs.sum()), "shared fills": int(table["shared fills"].sum()),
+                           "particle-steps": float(table["particle-steps"].sum()), "core-seconds": float(table["core-seconds"].sum())}])
     return pd.concat([table, total], ignore_index=True)
 
 
@@ -591,7 +598,7 @@ def build_report(config: dict[str, Any], figure_dir: Path | None = None) -> str:
         stability_section(root, figures),
         "<h2>DEM runs</h2>",
         "<h3>DEM cost per case</h3>",
-        table_html(dem_cost_table(runs)),
+        table_html(dem_cost_table(runs, [json.loads(Path(p).read_text()) for p in shared_fill_paths(config)])),
         "<p class='note'>LIGGGHTS, Hertz contacts with tangential history, polydisperse spheres; rough walls "
         "made of grain monolayers. Stiffness and time step follow <code>pipeline/dem/contact_scaling.py</code>.</p>",
         table_html(dem_table(runs)),

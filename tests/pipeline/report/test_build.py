@@ -6,6 +6,7 @@ from pathlib import Path
 import pytest
 
 from pipeline.common.config import dem_runs, load_config
+from pipeline.report.build import dem_cost_table
 
 pytestmark = pytest.mark.workflow
 
@@ -59,3 +60,19 @@ def test_report_in_a_browser_fits_the_page_and_shows_every_score(reduced_results
     assert seen["width"] >= 1300  # the window Chromium was asked for
     assert seen["overflow"] <= 0, seen  # nothing wider than the page
     assert seen["cells"] > 50 and seen["empty"] == 0, seen
+
+
+def test_the_dem_bill_counts_a_shared_fill_once() -> None:
+    def run(case: str, fill_steps: int) -> dict:
+        return {"case": case, "particle_count": 100, "steps": 1000, "steps_by_stage": {"fill": fill_steps},
+                "wall_clock_seconds": 10.0, "mpi_ranks": 2}
+
+    runs = [run("rheometer", 0), run("rheometer", 0), run("shear_gravity", 500)]
+    fill = {"case": "rheometer", "particle_count": 100, "steps_by_stage": {"fill": 400},
+            "wall_seconds_by_stage": {"fill": 3.0}, "mpi_ranks": 2}
+    table = dem_cost_table(runs, [fill]).set_index("case")
+    # Two states' shear and production, and their one fill; the other case's own fill in its run.
+    assert table.loc["rheometer", "particle-steps"] == 100 * (1000 + 1000 + 400)
+    assert table.loc["rheometer", "core-seconds"] == 2 * (10.0 + 10.0 + 3.0)
+    assert table.loc["shear_gravity", "particle-steps"] == 100 * 1500
+    assert table.loc["all", "runs"] == 3 and table.loc["all", "shared fills"] == 1
