@@ -92,11 +92,11 @@ def _check_consistency(config: dict[str, Any], source: str) -> None:
         if "continue_above" in case and not case.get("shared_fill", False):
             raise ConfigError(f"{source}: cases.{name}.continue_above: a state continues from a slower state's "
                               "packing only within one replica's lineage, which needs shared_fill: true")
-        slowest = min((i for i, _ in rheometer_states(case)), default=None) if name == RHEOMETER else None
         # A DEM run's own config holds its one state: the chain is checked on the whole config.
-        if "continue_above" in case and len(rheometer_states(case)) > 1 and case["continue_above"] < slowest:
+        targets_i = [i for i, _ in rheometer_states(case)] if "continue_above" in case else []
+        if len(targets_i) > 1 and case["continue_above"] < min(targets_i):
             raise ConfigError(f"{source}: cases.{name}.continue_above ({case['continue_above']:g}) is below the slowest "
-                              f"state's target I ({slowest:g}): that state would have no slower one to start from")
+                              f"state's target I ({min(targets_i):g}): that state would have no slower one to start from")
     precision = dem.get("precision")
     if precision is not None:
         _check_log_speed_pair(precision, f"{source}: dem.precision")
@@ -303,6 +303,13 @@ def fill_physics(config: dict[str, Any], case_name: str, fill: str) -> dict[str,
             "seed": derived_seed(config["seed"], case_name, fill)}
 
 
+def continues_from_slower(case_name: str, case: dict[str, Any], run: str) -> bool:
+    """Whether a run shears from a slower state's final packing: a rheometer state whose target
+    inertial number is above ``continue_above`` (read from the run's own config alone)."""
+    threshold = case.get("continue_above") if case_name == RHEOMETER else None
+    return threshold is not None and size_study_cell(run) is None and run_state(run)[0] > threshold
+
+
 def predecessor_state(case_name: str, case: dict[str, Any], run: str) -> str | None:
     """The rheometer state a state starts from, with ``continue_above``: for a target inertial
     number above it, the replica's state with the next lower target I (of those, the pressure
@@ -311,12 +318,9 @@ def predecessor_state(case_name: str, case: dict[str, Any], run: str) -> str | N
     The fast states dilate far from the settled packing (nu about 0.6 to below 0.5), which a load
     of a few Pa drives slowly; the next slower state has done most of it.
     """
-    threshold = case.get("continue_above") if case_name == RHEOMETER else None
-    if threshold is None or size_study_cell(run) is not None:
+    if not continues_from_slower(case_name, case, run):
         return None
     inertial, pressure = run_state(run)
-    if inertial <= threshold:
-        return None
     replica = run.rsplit("-", 1)[1]
     slower = [(i, p) for i, p in rheometer_states(case) if i < inertial]
     if not slower:

@@ -6,7 +6,7 @@ from pathlib import Path
 
 from pipeline.common import atomic
 from pipeline.common.cli import positive_int
-from pipeline.common.config import dem_runs, load_config, run_state, shared_fill_ids, shared_fill_of, size_study_cell
+from pipeline.common.config import continues_from_slower, dem_runs, load_config, shared_fill_ids, shared_fill_of, size_study_cell
 from pipeline.dem.intruder_run import IntruderRun, YieldProbe
 from pipeline.dem.planar_run import FILL_RECORD, PlanarShearRun
 from pipeline.dem.shared_fill import run_shared_fill
@@ -66,8 +66,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.fill_from is not None and shared_fill_of(args.case, case, args.run) is None:
         parser.error(f"--fill-from: run {args.run!r} of case {args.case!r} pours its own fill (it shares none)")
     fill_from = Path(args.fill_from) if args.fill_from else None
-    chained = (not intruder and case.get("continue_above") is not None and size_study_cell(args.run) is None
-               and run_state(args.run)[0] > case["continue_above"])
+    chained = continues_from_slower(args.case, case, args.run)
     if chained and args.start_from is None:
         parser.error(f"--run {args.run!r}: its target I is above cases.{args.case}.continue_above ({case['continue_above']:g}), so it "
                      "shears from the next slower state's final packing: give --start-from that state's folder")

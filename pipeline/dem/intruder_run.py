@@ -308,9 +308,8 @@ class YieldProbe(IntruderRun):
     stops there. Written to ``yield.json`` in the run folder.
     """
 
-    def __init__(self, config: dict[str, Any], case_name: str, run_id: str, run_dir: Path,
-                 fill_from: Path | None = None) -> None:
-        super().__init__(config, case_name, run_id, run_dir, fill_from=fill_from)
+    def __init__(self, config: dict[str, Any], case_name: str, run_id: str, run_dir: Path) -> None:
+        super().__init__(config, case_name, run_id, run_dir)
         self.control = True
         d = self.mat["d"]
         self.scale = hydrostatic_pressure(self.wall_pressure, self.mat["rho_s"], self.case["gravity"],

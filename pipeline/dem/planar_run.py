@@ -19,6 +19,7 @@ Usage: ``python -m pipeline.dem --config config/config.yaml --case rheometer --r
 """
 from __future__ import annotations
 
+import functools
 import json
 import math
 import os
@@ -206,7 +207,7 @@ class PlanarShearRun:
                        "run": self.run_id}
         if self.start_from is not None:
             # Chunks continued from another run's packing belong to that run's history too.
-            fingerprint["start_from"] = self._start_source()["fingerprint"]
+            fingerprint["start_from"] = self._start_source["fingerprint"]
         if self.state_path.exists():
             state = json.loads(self.state_path.read_text())
             if state.get("fingerprint") == fingerprint:
@@ -334,10 +335,10 @@ class PlanarShearRun:
         if not record_path.is_file():
             raise DEMRunError(f"{self.label}: --fill-from {source}: no {FILL_RECORD} there (the shared fill has not run)")
         record = json.loads(record_path.read_text())
-        expected = fill_physics(self.config, self.case_name, record.get("run", "?"))
-        if shared_fill_of(self.case_name, self.case, self.run_id) != record.get("run") or record.get("physics") != expected:
+        own_fill = shared_fill_of(self.case_name, self.case, self.run_id)
+        if own_fill != record.get("run") or record.get("physics") != fill_physics(self.config, self.case_name, own_fill):
             raise DEMRunError(f"{self.label}: {record_path} is fill {record.get('run')!r} made with other settings "
-                              f"than this run's config gives its shared fill {shared_fill_of(self.case_name, self.case, self.run_id)!r} "
+                              f"than this run's config gives its shared fill {own_fill!r} "
                               "(material, cell, grains or seed differ): rerun the fill")
         for name in FILL_FILES + tuple(n for n in OPTIONAL_FILL_FILES if (source / n).is_file()):
             target = self.run_dir / name
@@ -350,8 +351,10 @@ class PlanarShearRun:
             "shared": {"run": record["run"], "steps": record["fill"]["steps"], "wall_seconds": record["fill"]["wall_seconds"]}}
         self._save_state()
 
+    @functools.cached_property
     def _start_source(self) -> dict[str, Any]:
-        """The finished run ``start_from`` names: its id, state fingerprint and final restart."""
+        """The finished run ``start_from`` names: its id, state fingerprint, seed and final restart
+        (read once: the fingerprint and the start both need it)."""
         source = self.start_from
         state_path, record_path = source / "state.json", source / "run.json"
         if not record_path.is_file() or not state_path.is_file():
@@ -369,7 +372,7 @@ class PlanarShearRun:
         the first chunk, as after a fill; the steady-state test then decides, as always, when the
         packing has become this run's.
         """
-        source = self._start_source()
+        source = self._start_source
         # The lineage is the shared fill's seed, whether a run copied that fill or poured it itself.
         own_fill = shared_fill_of(self.case_name, self.case, self.run_id)
         if source["fingerprint"]["case"] != self.case_name or own_fill is None or source["seed"] != self.seed:
