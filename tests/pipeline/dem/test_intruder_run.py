@@ -14,17 +14,19 @@ import pytest
 
 from pipeline.common.config import dem_runs, intruder_run, load_config
 from pipeline.dumps.reader import read_particles
-from pipeline.dem.intruder_run import ARREST_DISPLACEMENT_OVER_D, creep_speed, unwrap
+from pipeline.dem.intruder_run import CreepSpeed, creep_speed, rod_speed_settled, unwrap
 
 REPO = Path(__file__).resolve().parents[3]
 D = 0.002
+#: A control rod moves less than a tenth of a grain over its production (the top wall at rest).
+CONTROL_DISPLACEMENT_OVER_D = 0.1
 
 
 # ------------------------------------------------------------------------------ no LIGGGHTS
 def test_creep_speed_recovers_a_noisy_drift(rng: np.random.Generator) -> None:
     t = np.linspace(0.0, 1.0, 800)
     x = 1e-3 * t + 2e-6 * rng.standard_normal(t.size)
-    c = creep_speed(t, x, D)
+    c = creep_speed(t, x)
     assert not c.arrested
     assert abs(c.speed - 1e-3) < 3.0 * c.speed_err + 1e-6
 
@@ -32,9 +34,66 @@ def test_creep_speed_recovers_a_noisy_drift(rng: np.random.Generator) -> None:
 def test_creep_speed_calls_jiggling_without_drift_arrested(rng: np.random.Generator) -> None:
     t = np.linspace(0.0, 1.0, 800)
     x = 1e-5 * rng.standard_normal(t.size)
-    assert creep_speed(t, x, D).arrested
-    # A slow but steady drift that stays under the displacement floor is arrested too.
-    assert creep_speed(t, 0.5 * ARREST_DISPLACEMENT_OVER_D * D * t, D).arrested
+    assert creep_speed(t, x).arrested
+    # A steady drift at or below the rest speed is at rest, however well it is resolved.
+    assert creep_speed(t, 1e-7 * t, rest_speed=1e-6).arrested
+
+
+def test_arrest_depends_on_the_speed_not_on_the_window(rng: np.random.Generator) -> None:
+    """A slow rod resolved from zero moves, over a short window as over a long one (the rule on
+    the displacement over the window called the same rod arrested over the short window)."""
+    speed = 2e-5  # m/s: 0.004 d over 0.4 s
+    for duration in (0.4, 4.0):
+        t = np.linspace(0.0, duration, 800)
+        x = speed * t + 1e-8 * rng.standard_normal(t.size)
+        c = creep_speed(t, x, rest_speed=1e-6)
+        assert not c.arrested, (duration, c)
+        assert c.speed == pytest.approx(speed, rel=0.01)
+
+
+def _relaxing_rod(t: np.ndarray, plateau: float, excess: float, tau: float, rng: np.random.Generator) -> np.ndarray:
+    """Rod position (m) whose speed relaxes from ``plateau + excess`` to ``plateau`` (m/s) over ``tau`` (s)."""
+    return plateau * t + excess * tau * (1.0 - np.exp(-t / tau)) + 1e-7 * rng.standard_normal(t.size)
+
+
+def test_rod_settles_only_once_its_speed_stops_falling(rng: np.random.Generator) -> None:
+    """Windows of 4 chunks of 0.1 s over a speed that relaxes exponentially to a plateau: the
+    test fails while the two windows' mean speeds differ by more than ``tol`` of the latter, and
+    the first window it passes on measures the plateau to within that ``tol``."""
+    plateau, excess, tau, tol, chunk, window = 1e-4, 2e-3, 0.2, 0.3, 0.1, 4
+    t = np.linspace(0.0, 4.0, 16001)
+    x = _relaxing_rod(t, plateau, excess, tau, rng)
+
+    def speed(k0: int, k1: int) -> CreepSpeed:
+        m = (t >= k0 * chunk) & (t <= k1 * chunk)
+        return creep_speed(t[m], x[m], n_blocks=4, rest_speed=1e-6)
+
+    def mean_speed(a: float, b: float) -> float:
+        return plateau + excess * tau * (np.exp(-a / tau) - np.exp(-b / tau)) / (b - a)
+
+    settled_at = None
+    for k in range(window, 40):
+        before = speed(k - 2 * window, k - window) if k >= 2 * window else None
+        test = rod_speed_settled(before, speed(k - window, k), tol, rest_speed=1e-6)
+        if before is None:
+            assert not test["stationary"], "a moving rod is not settled without an earlier window"
+            continue
+        true_before = mean_speed((k - 2 * window) * chunk, (k - window) * chunk)
+        true_latest = mean_speed((k - window) * chunk, k * chunk)
+        if true_before - true_latest > 1.5 * tol * true_latest:
+            assert not test["stationary"], (k, test)
+        if test["stationary"]:
+            settled_at = k
+            break
+    assert settled_at is not None
+    assert abs(speed(settled_at - window, settled_at).speed - plateau) <= tol * plateau
+
+
+def test_rod_at_rest_is_settled_without_an_earlier_window(rng: np.random.Generator) -> None:
+    t = np.linspace(0.0, 0.4, 800)
+    x = 1e-9 * rng.standard_normal(t.size)
+    assert rod_speed_settled(None, creep_speed(t, x, n_blocks=4, rest_speed=1e-6), 0.3, 1e-6)["stationary"]
+    assert not rod_speed_settled(None, creep_speed(t, x, n_blocks=4), 0.3, 0.0)["stationary"]
 
 
 def test_unwrap_undoes_periodic_wrapping() -> None:
@@ -85,7 +144,7 @@ def test_control_without_shear_shows_no_steady_motion(control: dict[str, Any]) -
     rod = control["intruder"]
     assert rod["control"] and control["wall_speed"] == 0.0
     assert rod["arrested"], rod
-    assert abs(rod["displacement"]) < ARREST_DISPLACEMENT_OVER_D * control["d"]
+    assert abs(rod["displacement"]) < CONTROL_DISPLACEMENT_OVER_D * control["d"]
     # The push is below the yield force, and the grains hold it: contact force = -push on average.
     assert rod["force"] < rod["yield_force_estimate"]
     assert rod["mean_contact_force_x"] == pytest.approx(-rod["force"], rel=0.05)
