@@ -631,9 +631,9 @@ class PlanarShearRun:
         return None
 
     def precision_targets(self, precision_cfg: dict[str, Any]) -> dict[str, float]:
-        """The targets that apply to this run: the planar fields (and creep with gravity, or the
-        wall friction without)."""
-        names = ("u_x_over_v", "nu", "log_speed", "log_speed_depth_over_d") if self.case["gravity"] > 0 else ("u_x_over_v", "nu", "mu")
+        """The targets that apply to this run: the planar fields, the wall friction, and with
+        gravity the creep."""
+        names = ("u_x_over_v", "nu", "mu") + (("log_speed", "log_speed_depth_over_d") if self.case["gravity"] > 0 else ())
         return {k: float(precision_cfg[k]) for k in names if k in precision_cfg}
 
     def production_precision(self, produced: list[dict[str, Any]], precision_cfg: dict[str, Any]) -> dict[str, Any]:

@@ -8,8 +8,11 @@ errors of what the scores read (``dem.precision`` in the config names the target
 - ``nu``: the standard error of the bulk's mean solid fraction (grain volumes counted by centre):
   the rheometer's nu(I) point; a profile's bin-to-bin structure is frozen in the packing and does
   not average out in time, so it is no stopping criterion;
-- ``mu`` (no gravity: the rheometer): the standard error of the wall stress ratio
-  ``-ftop_x / (P A)`` from the wall series (the scored friction of the state);
+- ``mu``: the standard error of the top wall's stress ratio ``|ftop_x| / ftop_z`` from the wall
+  series: the scored friction of a rheometer state; with gravity, the error of the part of the
+  scored profile ``mu(z) = tau / p(z)`` that ``tau`` sets (uniform in steady flow), the largest
+  at the top where ``p`` is least (the replicas' mean offsets of mu(z), 0.011-0.023, were most
+  of the targeted design's higher mu_rmse noise, docs/dem_cost.md);
 - ``log_speed`` (gravity): the largest error of ``log10`` of the displacement creep speed from
   the top wall down to ``log_speed_depth_over_d`` below it, the depth to which a creeping case's
   decay is scored; a bin whose speed is not resolved (``<= 2`` errors) counts as unmet.
@@ -118,7 +121,7 @@ def measure(means: ChunkMeans, d: float, stress_ratio_blocks: np.ndarray | None,
             targets: dict[str, float], gravity: bool) -> dict[str, Any]:
     """The errors reached and whether each target in ``targets`` is met.
 
-    ``stress_ratio_blocks``: per-chunk mean wall stress ratio (rheometer), or None.
+    ``stress_ratio_blocks``: per-chunk mean wall stress ratio, or None.
     Returns ``{"blocks", "reached": {name: error}, "met": {name: bool}, "all_met"}``.
     """
     reached: dict[str, float] = {}
@@ -129,7 +132,7 @@ def measure(means: ChunkMeans, d: float, stress_ratio_blocks: np.ndarray | None,
         reached["u_x_over_v"] = float(np.nanmax(standard_error(means.u_x_over_v[:, means.bulk])))
     if "nu" in targets:
         reached["nu"] = float(standard_error(means.nu[:, means.bulk].mean(axis=1)[:, None])[0])
-    if "mu" in targets and stress_ratio_blocks is not None and not gravity:
+    if "mu" in targets and stress_ratio_blocks is not None:
         reached["mu"] = float(standard_error(np.asarray(stress_ratio_blocks)[:, None])[0])
     if "log_speed" in targets and gravity:
         speed = means.u_disp_over_v

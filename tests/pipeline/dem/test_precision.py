@@ -50,8 +50,9 @@ def test_targets_of_the_geometry_only(rng: np.random.Generator) -> None:
     # The friction's blocks scatter by 0.008: error 0.004, within the target.
     assert abs(out["reached"]["mu"] - np.std([0.40, 0.41, 0.39, 0.40], ddof=1) / 2.0) < 1e-12
     assert out["all_met"]
-    # With gravity the wall friction is not a target (the profile is scored, not one friction).
-    assert "mu" not in precision.measure(means, 0.002, np.ones(4), targets, gravity=True)["reached"]
+    # With gravity too: tau, uniform in steady flow, sets the scored profile mu(z) = tau / p(z).
+    assert precision.measure(means, 0.002, np.array([0.40, 0.41, 0.39, 0.40]), targets, gravity=True)["reached"]["mu"] \
+        == out["reached"]["mu"]
 
 
 def test_too_few_chunks_meet_nothing(rng: np.random.Generator) -> None:
