@@ -1,8 +1,9 @@
 """The DEM bill of two designs side by side: particle-steps, core-seconds and DEM noise per case.
 
 Reads the run records (``dem/<case>/<run>/run.json`` and ``state.json``, and the shared fills'
-``dem/<case>/fill-r<k>/fill.json``, counted once) and the scores
-(``scores.csv``: ``dem_noise`` per case and metric, the replica scatter of the metric) of two
+``dem/<case>/fill-r<k>/fill.json``, counted once) and the fields (``fields/<case>/r<k>.nc``: the
+DEM noise of each scored metric, the metric between replica pairs as ``scores.csv`` defines it,
+recomputed by this code for both roots, with the number of pairs and their scatter) of two
 output roots made from the same cases: one with fixed-length production (``dem.precision``
 absent, 0.5-strain chunks: the design before issue 19) and one with production to a target
 precision. Particle-steps (grains x time steps, fill included) count the work without machine
@@ -20,12 +21,14 @@ import math
 import sys
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
 from pipeline.dem.planar_run import settled_timestep  # noqa: E402
+from pipeline.scoring import scores  # noqa: E402
 
 #: The cases of the goal (issue 19): rheometer, shear_gravity's replicas, intruder.
 GOAL_CASES = ("rheometer", "shear_gravity", "intruder")
@@ -82,10 +85,63 @@ def run_costs(root: Path) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+def pair_scatter(root: Path) -> pd.DataFrame:
+    """Per (case, metric), recomputed by this code from the root's fields and run records: the
+    DEM noise (the scores' definition: the metric between replica pairs, their mean; the
+    intruder's, the RMS of |log10 U_a / U_b| at one depth), the number of pairs behind it and the
+    standard error of their mean (nan with one pair). Recomputing puts both designs under the same
+    code (a root's scores.csv is as old as its run). The pairs share replicas (3 replicas give 3
+    pairs, 2 of them independent), so the error is a lower bound of the estimate's own scatter."""
+    params = json.loads((root / "calibration" / "params.json").read_text())
+    rows = []
+    for case_dir in sorted(p for p in (root / "fields").iterdir() if p.is_dir() and p.name not in ("rheometer", "intruder")):
+        files = sorted(f for f in case_dir.glob("r*.nc") if f.stem[1:].isdigit())
+        if len(files) < 2:
+            continue
+        reps = scores.with_microscopic_fluidity(scores.replica_profiles(files), params)
+        mask = scores.interior(reps[0])
+        table = scores.metric_table(reps[0].z.values[mask], float(reps[0].attrs["wall_speed"]))
+        for metric, (variable, fn) in table.items():
+            observed = scores.DEM_VARIABLE.get(metric, variable)
+            if observed in reps[0]:
+                rows.append(_scatter_row(case_dir.name, metric, scores.pair_values(reps, observed, fn, mask)))
+    runs = [json.loads(p.read_text()) for p in sorted((root / "dem" / "intruder").glob("D*/run.json"))]
+    for r in runs:
+        # The arrest rule of this code (the speed alone), whatever rule the run's own code applied.
+        rod = r["intruder"]
+        rod["arrested"] = abs(rod["speed"]) <= max(2.0 * rod["speed_err"], rest_speed(root))
+    squares = list(np.square(scores.intruder_noise_terms(scores.moving_rod_speeds(runs))))
+    row = _scatter_row("intruder", "intruder_speed_log_err", squares)
+    if squares:  # the RMS of the terms, and its error from that of their mean square
+        rms = math.sqrt(row["dem_noise"])
+        row |= {"dem_noise": rms, "noise_se": row["noise_se"] / (2.0 * rms)}
+    rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def rest_speed(root: Path) -> float:
+    """The rest speed (m/s) of the root's config (``rod_arrest_speed_over_v`` x V), or 0."""
+    config = json.loads((root / "config.effective.json").read_text())
+    bound = (config["dem"].get("precision") or {}).get("rod_arrest_speed_over_v")
+    return 0.0 if bound is None else float(bound) * float(config["cases"]["intruder"]["wall_speed"])
+
+
+def _scatter_row(case: str, metric: str, values: list[float]) -> dict[str, object]:
+    n = len(values)
+    return {"case": case, "metric": metric, "pairs": n, "dem_noise": float(np.mean(values)) if n else math.nan,
+            "noise_se": float(np.std(values, ddof=1) / math.sqrt(n)) if n > 1 else math.nan}
+
+
 def noise(root: Path) -> pd.DataFrame:
-    """DEM noise per (case, metric): the scores' replica scatter, the calibration's errors."""
-    scores = pd.read_csv(root / "scores.csv")
-    out = scores.groupby(["case", "metric"], as_index=False)["dem_noise"].first()
+    """DEM noise per (case, metric): the replica scatter recomputed (:func:`pair_scatter`), the
+    calibration's errors for the rheometer. Where the root's scores.csv says otherwise, a line."""
+    out = pair_scatter(root)
+    recorded = pd.read_csv(root / "scores.csv").groupby(["case", "metric"], as_index=False)["dem_noise"].first()
+    both = out.merge(recorded, on=["case", "metric"], suffixes=("", "_scores_csv"))
+    differ = both[~np.isclose(both["dem_noise"], both["dem_noise_scores_csv"], rtol=1e-9, atol=0.0)]
+    for row in differ.itertuples():
+        print(f"note: {root}/scores.csv has {row.case} {row.metric} noise {row.dem_noise_scores_csv:.3g}, "
+              f"this code {row.dem_noise:.3g} (the root's scores are older than its fields' reading here)")
     params = json.loads((root / "calibration" / "params.json").read_text())
     extra = [{"case": "rheometer", "metric": f"{name}_err", "dem_noise": params["local"][name]["error"]}
              for name in ("mu_s", "mu_2", "I_0", "nu_c", "a") if name in params["local"]]
@@ -127,7 +183,15 @@ def main(argv: list[str] | None = None) -> int:
               f"particle-steps = {steps:.3f}, core-seconds = {secs:.3f}")
     noises = noise(args.fixed).merge(noise(args.targeted), on=["case", "metric"], how="outer", suffixes=("_fixed", "_targeted"))
     noises["ratio"] = noises["dem_noise_targeted"] / noises["dem_noise_fixed"]
-    print("\nDEM noise of each scored metric (replica scatter; rheometer: calibration errors)")
+    diff_se = np.hypot(noises["noise_se_fixed"], noises["noise_se_targeted"])
+    diff = noises["dem_noise_targeted"] - noises["dem_noise_fixed"]
+    noises["verdict"] = np.where(~np.isfinite(diff_se), "undecided (one pair)",
+                                 np.where(diff > 2.0 * diff_se, "higher", np.where(diff < -2.0 * diff_se, "lower", "equal within 2 se")))
+    noises.loc[noises["case"] == "rheometer", "verdict"] = np.where(
+        noises.loc[noises["case"] == "rheometer", "ratio"] <= 1.0, "lower or equal", "higher")
+    print("\nDEM noise of each scored metric (replica scatter; rheometer: calibration errors); pairs and se: the")
+    print("replica pairs behind each noise and the standard error of their mean (a lower bound: pairs share replicas);")
+    print("verdict: targeted - fixed against twice the combined se")
     print(noises.to_string(index=False, float_format=lambda v: f"{v:.3g}" if math.isfinite(v) else "nan"))
     return 0
 

@@ -126,6 +126,12 @@ LOG_VARIABLES = ("u_creep", "fluidity", "fluidity_micro")
 
 def dem_noise(reps: list[xr.Dataset], variable: str, fn: Callable[..., float], mask: np.ndarray) -> float:
     """Mean of the metric between pairs of replicas (nan with a single replica)."""
+    finite = pair_values(reps, variable, fn, mask)
+    return float(np.mean(finite)) if finite else float("nan")
+
+
+def pair_values(reps: list[xr.Dataset], variable: str, fn: Callable[..., float], mask: np.ndarray) -> list[float]:
+    """The metric between each pair of replicas (replica a as the model, b as the DEM), finite ones only."""
     values = []
     for a, b in itertools.combinations(reps, 2):
         err = b[f"{variable}_err"].values
@@ -136,8 +142,7 @@ def dem_noise(reps: list[xr.Dataset], variable: str, fn: Callable[..., float], m
             values.append(fn(a[variable].values[mask], b[variable].values[mask], err[mask]))
         except MetricError:
             continue
-    finite = [v for v in values if math.isfinite(v)]
-    return float(np.mean(finite)) if finite else float("nan")
+    return [v for v in values if math.isfinite(v)]
 
 
 def with_microscopic_fluidity(reps: list[xr.Dataset], params: dict | None) -> list[xr.Dataset]:
@@ -183,6 +188,20 @@ def score_case(case: str, field_files: list[Path], model_files: dict[str, Path],
     return pd.DataFrame(rows, columns=COLUMNS)
 
 
+def moving_rod_speeds(runs: list[dict]) -> dict[float, list[float]]:
+    """Speeds (m/s) of the sheared rods that move (not arrested), by target depth (in d)."""
+    by_depth: dict[float, list[float]] = {}
+    for r in runs:
+        if not r["intruder"]["control"] and not r["intruder"]["arrested"]:
+            by_depth.setdefault(round(r["intruder"]["depth_target_over_d"], 6), []).append(r["intruder"]["speed"])
+    return by_depth
+
+
+def intruder_noise_terms(by_depth: dict[float, list[float]]) -> list[float]:
+    """``|log10(U_a / U_b)|`` for each pair of replicas' rods at one depth (moving forward)."""
+    return [abs(math.log10(a / b)) for v in by_depth.values() for a, b in itertools.combinations(v, 2) if a > 0 and b > 0]
+
+
 def score_intruder(runs: list[dict], model_files: dict[str, Path]) -> pd.DataFrame:
     """``intruder_speed_log_err``: RMS of log10(U_model / U_dem) over the depths where the DEM rod
     moves (not arrested) and the model gives a speed; inf where the model predicts no motion.
@@ -191,16 +210,13 @@ def score_intruder(runs: list[dict], model_files: dict[str, Path]) -> pd.DataFra
     two replicas at the same depth (nan with one replica).
     """
     sheared = [r for r in runs if not r["intruder"]["control"]]
-    by_depth: dict[float, list[float]] = {}
-    for r in sheared:
-        if not r["intruder"]["arrested"]:
-            by_depth.setdefault(round(r["intruder"]["depth_target_over_d"], 6), []).append(r["intruder"]["speed"])
+    by_depth = moving_rod_speeds(runs)
     if not by_depth:
         raise MetricError("no intruder run moves: nothing to score")
     actual = {}
     for r in sheared:
         actual.setdefault(round(r["intruder"]["depth_target_over_d"], 6), []).append(r["intruder"]["depth_over_d"])
-    noise_terms = [abs(math.log10(a / b)) for v in by_depth.values() for a, b in itertools.combinations(v, 2) if a > 0 and b > 0]
+    noise_terms = intruder_noise_terms(by_depth)
     noise = float(np.sqrt(np.mean(np.square(noise_terms)))) if noise_terms else float("nan")
     rows = []
     for model, path in sorted(model_files.items()):
