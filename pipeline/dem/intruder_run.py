@@ -268,6 +268,16 @@ class IntruderRun(PlanarShearRun):
         rod = rod_speed_settled(before, latest, float(tol), self.rest_speed())
         return test | {"rod": rod, "stationary": bool(test["stationary"] and rod["stationary"])}
 
+    def _steady_summary(self, test: dict[str, Any]) -> str:
+        rod = test.get("rod")
+        if rod is None:
+            return super()._steady_summary(test)
+        if "speed_before" not in rod:
+            where = "at rest" if rod["at_rest"] else "no earlier window yet"
+            return f"{super()._steady_summary(test)}; rod {rod['speed'] * 1e3:.3g} mm/s, {where}"
+        return (f"{super()._steady_summary(test)}; rod {rod['speed'] * 1e3:.3g} mm/s against "
+                f"{rod['speed_before'] * 1e3:.3g} before, {abs(rod['speed_before'] - rod['speed']) / rod['allowed']:.2f} of allowed")
+
     def precision_targets(self, precision_cfg: dict[str, Any]) -> dict[str, float]:
         """The intruder is scored on its rod's creep speed: its relative error is the target, or
         for a rod at rest the bound on its speed."""

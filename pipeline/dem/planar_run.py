@@ -539,6 +539,11 @@ class PlanarShearRun:
                 "stationary": force.stationary and height.stationary,
                 "t_start": window_chunks[0]["t_start"], "t_end": window_chunks[-1]["t_end"]}
 
+    def _steady_summary(self, test: dict[str, Any]) -> str:
+        """One clause for the log: each drift as a fraction of what the test allows."""
+        return (f"force drift {abs(test['force']['drift']) / test['force']['allowed']:.2f}, height drift "
+                f"{abs(test['height']['drift']) / test['height']['allowed']:.2f} of allowed")
+
     # ------------------------------------------------------------------------------------ run
     def run(self) -> dict[str, Any]:
         """Run (or resume) all stages; return the run.json record."""
@@ -566,9 +571,7 @@ class PlanarShearRun:
                 test = self._steady_test(shear[-window:])
                 self.state["last_steady_test"] = test
                 print(f"{self.label}: steady-state test over shear chunks {len(shear) - window + 1}-{len(shear)}: "
-                      f"force drift {abs(test['force']['drift']) / test['force']['allowed']:.2f}, height drift "
-                      f"{abs(test['height']['drift']) / test['height']['allowed']:.2f} of allowed: "
-                      f"{'steady' if test['stationary'] else 'not yet steady'}", flush=True)
+                      f"{self._steady_summary(test)}: {'steady' if test['stationary'] else 'not yet steady'}", flush=True)
                 if test["stationary"]:
                     self.state["steady"] = test
                     self._save_state()

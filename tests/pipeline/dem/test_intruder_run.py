@@ -157,6 +157,14 @@ def test_sheared_rod_creeps_forward(sheared: dict[str, Any], control: dict[str, 
     assert rod["speed"] > 2.0 * rod["speed_err"] > 0.0
     assert rod["speed"] < sheared["wall_speed"]
     assert rod["force"] == control["intruder"]["force"]
+    # Production began only when the rod's speed over the window agreed with its speed over as
+    # many chunks before: a moving rod needs two windows of shear at the least.
+    config = load_config(sheared["_dir"].parents[2] / "config.effective.json")
+    window = config["dem"]["steady_window_chunks"]
+    settled = sheared["steady_state_test"]["rod"]
+    assert settled["stationary"] and not settled["at_rest"], settled
+    assert abs(settled["speed_before"] - settled["speed"]) <= settled["allowed"]
+    assert sheared["shear_chunks"] >= 2 * window
 
 
 @pytest.mark.liggghts
