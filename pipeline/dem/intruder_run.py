@@ -38,6 +38,7 @@ import pandas as pd
 
 from pipeline.common import atomic
 from pipeline.dem import liggghts_render as render
+from pipeline.dem import precision
 from pipeline.common.config import intruder_run, mean_grain_volume
 from pipeline.dem.liggghts_log import DEMRunError
 from pipeline.dem.planar_run import PlanarShearRun
@@ -290,14 +291,19 @@ class IntruderRun(PlanarShearRun):
         confirms a speed below anything scored."""
         targets = self.precision_targets(precision_cfg)
         creep = self.rod_creep(produced[0]["t_start"], produced[-1]["t_end"])
+        # The targets are met by the error's upper confidence bound (pipeline.dem.precision.judge).
+        upper_err = creep.speed_err * precision.error_bound_factor(SPEED_BLOCKS)
         reached: dict[str, float] = {}
+        bound: dict[str, float] = {}
         if "rod_speed_rel" in targets:
             reached["rod_speed_rel"] = abs(creep.speed_err / creep.speed) if creep.speed != 0 else math.inf
+            bound["rod_speed_rel"] = abs(upper_err / creep.speed) if creep.speed != 0 else math.inf
         if "rod_arrest_speed_over_v" in targets:
             reached["rod_arrest_speed_over_v"] = (abs(creep.speed) + 2.0 * creep.speed_err) / self.reference_speed()
-        met = {k: bool(v <= targets[k]) for k, v in reached.items()}
+            bound["rod_arrest_speed_over_v"] = (abs(creep.speed) + 2.0 * upper_err) / self.reference_speed()
+        judged = precision.judge(reached, targets, SPEED_BLOCKS, bound)
         # Either suffices: a resolved speed, or a bound below anything scored (a rod at rest).
-        return {"blocks": SPEED_BLOCKS, "reached": reached, "met": met, "all_met": any(met.values())}
+        return judged | {"all_met": any(judged["met"].values())}
 
     def _record(self, plan: dict[str, int]) -> dict[str, Any]:
         record = super()._record(plan)

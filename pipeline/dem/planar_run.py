@@ -623,7 +623,8 @@ class PlanarShearRun:
             return None
         measured = self.production_precision(produced, precision_cfg)
         # JSON has no infinity: an unresolved error is recorded as null.
-        measured["reached"] = {k: (v if math.isfinite(v) else None) for k, v in measured["reached"].items()}
+        for key in ("reached", "bound"):
+            measured[key] = {k: (v if math.isfinite(v) else None) for k, v in measured[key].items()}
         self.state.setdefault("precision_history", {})[str(len(produced))] = measured
         stop = {"design": "precision target", "targets": self.precision_targets(precision_cfg), "strain": strain,
                 "chunks": len(produced), "cap_strain": plan["production_chunks"] * self.dem["chunk_strain"]} | measured
@@ -633,8 +634,9 @@ class PlanarShearRun:
             unmet = sorted(name for name, ok in measured["met"].items() if not ok)
             return stop | {"reason": f"strain cap production_strain reached with {', '.join(unmet) or 'no target'} unmet"}
         print(f"{self.label}: precision after {len(produced)} production chunks: "
-              + ", ".join(f"{k} {'unresolved' if v is None else format(v, '.3g')} (target {stop['targets'][k]:g})"
-                          for k, v in measured["reached"].items())
+              + ", ".join(f"{k} {'unresolved' if v is None else format(v, '.3g')} (bound "
+                          f"{'unresolved' if measured['bound'][k] is None else format(measured['bound'][k], '.3g')}, "
+                          f"target {stop['targets'][k]:g})" for k, v in measured["reached"].items())
               + ": going on", flush=True)
         return None
 

@@ -44,10 +44,10 @@ def test_log_speed_target_depends_on_the_depth_scored(rng: np.random.Generator) 
 
 def test_targets_of_the_geometry_only(rng: np.random.Generator) -> None:
     means = _means(rng, 4, 1e-4)
-    targets = {"u_x_over_v": 0.01, "nu": 0.002, "mu": 0.005}
+    targets = {"u_x_over_v": 0.01, "nu": 0.002, "mu": 0.008}
     out = precision.measure(means, 0.002, np.array([0.40, 0.41, 0.39, 0.40]), targets, gravity=False)
     assert set(out["reached"]) == {"u_x_over_v", "nu", "mu"}
-    # The friction's blocks scatter by 0.008: error 0.004, within the target.
+    # The friction's blocks scatter by 0.008: error 0.004, its bound from 4 blocks 1.89 x that, within the target.
     assert abs(out["reached"]["mu"] - np.std([0.40, 0.41, 0.39, 0.40], ddof=1) / 2.0) < 1e-12
     assert out["all_met"]
     # With gravity too: tau, uniform in steady flow, sets the scored profile mu(z) = tau / p(z).
@@ -57,7 +57,28 @@ def test_targets_of_the_geometry_only(rng: np.random.Generator) -> None:
 
 def test_too_few_chunks_meet_nothing(rng: np.random.Generator) -> None:
     out = precision.measure(_means(rng, 2, 1e-4), 0.002, None, {"u_x_over_v": 1.0}, gravity=True)
-    assert out == {"blocks": 2, "reached": {}, "met": {}, "all_met": False}
+    assert out == {"blocks": 2, "reached": {}, "bound": {}, "met": {}, "all_met": False}
+
+
+def test_error_bound_covers_the_true_error_as_often_as_stated(rng: np.random.Generator) -> None:
+    """20000 sets of n normal batch means with unit variance: the true error of their mean,
+    1/sqrt(n), lies under the estimate x error_bound_factor(n) in 84 % of the sets (within the
+    binomial scatter, 3 x sqrt(0.84 0.16 / 20000) = 0.008), for the few batches where it matters."""
+    for n in (3, 4, 8):
+        err = precision.standard_error(rng.normal(size=(n, 20000)))
+        covered = np.mean(err * precision.error_bound_factor(n) >= 1.0 / math.sqrt(n))
+        assert abs(covered - precision.ERROR_BOUND_CONFIDENCE) < 0.008, (n, covered)
+
+
+def test_a_lucky_low_estimate_does_not_meet_the_target(rng: np.random.Generator) -> None:
+    """Three batches whose scatter is a quarter of the others': the estimate is under the target,
+    its bound is not, so production goes on."""
+    means = _means(rng, 3, 1e-4)
+    ratios = np.array([0.440, 0.4424, 0.4412])  # estimate 0.0007, bound 2.39 x that
+    out = precision.measure(means, 0.002, ratios, {"mu": 0.0012}, gravity=True)
+    assert out["reached"]["mu"] < 0.0012 < out["bound"]["mu"]
+    assert not out["all_met"]
+    assert out["bound"]["mu"] == out["reached"]["mu"] * precision.error_bound_factor(3)
 
 
 def test_a_longer_case_cap_keeps_the_dumps_as_dense_in_strain(tmp_path) -> None:
