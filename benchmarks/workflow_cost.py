@@ -27,6 +27,7 @@ import pandas as pd
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
+from pipeline.dem.intruder_run import is_arrested, rest_speed_of  # noqa: E402
 from pipeline.dem.planar_run import settled_timestep  # noqa: E402
 from pipeline.scoring import scores  # noqa: E402
 
@@ -106,10 +107,11 @@ def pair_scatter(root: Path) -> pd.DataFrame:
             if observed in reps[0]:
                 rows.append(_scatter_row(case_dir.name, metric, scores.pair_values(reps, observed, fn, mask)))
     runs = [json.loads(p.read_text()) for p in sorted((root / "dem" / "intruder").glob("D*/run.json"))]
+    rest = rest_speed_of(json.loads((root / "config.effective.json").read_text()), "intruder")
     for r in runs:
         # The arrest rule of this code (the speed alone), whatever rule the run's own code applied.
         rod = r["intruder"]
-        rod["arrested"] = abs(rod["speed"]) <= max(2.0 * rod["speed_err"], rest_speed(root))
+        rod["arrested"] = is_arrested(rod["speed"], rod["speed_err"], rest)
     squares = list(np.square(scores.intruder_noise_terms(scores.moving_rod_speeds(runs))))
     row = _scatter_row("intruder", "intruder_speed_log_err", squares)
     if squares:  # the RMS of the terms, and its error from that of their mean square
@@ -117,13 +119,6 @@ def pair_scatter(root: Path) -> pd.DataFrame:
         row |= {"dem_noise": rms, "noise_se": row["noise_se"] / (2.0 * rms)}
     rows.append(row)
     return pd.DataFrame(rows)
-
-
-def rest_speed(root: Path) -> float:
-    """The rest speed (m/s) of the root's config (``rod_arrest_speed_over_v`` x V), or 0."""
-    config = json.loads((root / "config.effective.json").read_text())
-    bound = (config["dem"].get("precision") or {}).get("rod_arrest_speed_over_v")
-    return 0.0 if bound is None else float(bound) * float(config["cases"]["intruder"]["wall_speed"])
 
 
 def _scatter_row(case: str, metric: str, values: list[float]) -> dict[str, object]:

@@ -106,8 +106,21 @@ def creep_speed(time: np.ndarray, x: np.ndarray, n_blocks: int = SPEED_BLOCKS, r
     speed = float(slopes.mean())
     err = float(slopes.std(ddof=1) / math.sqrt(n_blocks))
     displacement = float(x[-1] - x[0])
-    arrested = abs(speed) <= max(2.0 * err, rest_speed)
+    arrested = is_arrested(speed, err, rest_speed)
     return CreepSpeed(speed, err, displacement, float(time[-1] - time[0]), bool(arrested))
+
+
+def is_arrested(speed: float, speed_err: float, rest_speed: float) -> bool:
+    """The arrest rule on the speed alone (m/s): within twice its error of zero, or no faster
+    than ``rest_speed``."""
+    return abs(speed) <= max(2.0 * speed_err, rest_speed)
+
+
+def rest_speed_of(config: dict[str, Any], case_name: str) -> float:
+    """Speed (m/s) at or below which a case's rod is at rest: ``dem.precision.rod_arrest_speed_over_v``
+    times the case's wall speed, or 0 (only the 2-sigma rule) where the config names none."""
+    bound = (config["dem"].get("precision") or {}).get("rod_arrest_speed_over_v")
+    return 0.0 if bound is None else float(bound) * float(config["cases"][case_name]["wall_speed"])
 
 
 def rod_speed_settled(before: CreepSpeed | None, latest: CreepSpeed, tol: float, rest_speed: float) -> dict[str, Any]:
@@ -234,10 +247,8 @@ class IntruderRun(PlanarShearRun):
         return data[(data["time"] >= t_start) & (data["time"] <= t_end)].reset_index(drop=True)
 
     def rest_speed(self) -> float:
-        """Speed (m/s) at or below which the rod is at rest: ``dem.precision.rod_arrest_speed_over_v``
-        times the case's wall speed, or 0 (only the 2-sigma rule) where the config names none."""
-        bound = (self.dem.get("precision") or {}).get("rod_arrest_speed_over_v")
-        return 0.0 if bound is None else float(bound) * self.reference_speed()
+        """Speed (m/s) at or below which the rod is at rest (:func:`rest_speed_of`)."""
+        return rest_speed_of(self.config, self.case_name)
 
     def rod_creep(self, t_start: float, t_end: float, n_blocks: int = SPEED_BLOCKS) -> CreepSpeed:
         """The rod's speed over committed chunks between ``t_start`` and ``t_end`` (s)."""
