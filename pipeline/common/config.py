@@ -88,6 +88,11 @@ def _check_consistency(config: dict[str, Any], source: str) -> None:
         if "precision" in dem and dem["precision"]["min_production_strain"] > cap:
             raise ConfigError(f"{source}: cases.{name}.production_strain ({cap}) is below "
                               f"dem.precision.min_production_strain ({dem['precision']['min_production_strain']})")
+        window_strain = dem["steady_window_chunks"] * dem["chunk_strain"]
+        if dem.get("precision", {}).get("steady_window_is_production") and window_strain > cap + 1e-9:
+            raise ConfigError(f"{source}: dem.precision.steady_window_is_production: the steady window "
+                              f"(dem.steady_window_chunks x dem.chunk_strain = {window_strain:g} strain) would exceed "
+                              f"the production cap of cases.{name} ({cap:g})")
         _check_log_speed_pair(case.get("precision", {}), f"{source}: cases.{name}.precision")
         if "continue_above" in case and not case.get("shared_fill", False):
             raise ConfigError(f"{source}: cases.{name}.continue_above: a state continues from a slower state's "
@@ -185,7 +190,8 @@ def case_production(dem: dict[str, Any], case: dict[str, Any]) -> dict[str, Any]
     spread over (``dem.production_strain``), so a longer cap does not thin the dumps."""
     out = dict(dem) | {"snapshot_strain": dem["production_strain"]}
     if "precision" in case:
-        out["precision"] = {"min_production_strain": dem["precision"]["min_production_strain"]} | dict(case["precision"])
+        kept = {k: dem["precision"][k] for k in ("min_production_strain", "steady_window_is_production") if k in dem["precision"]}
+        out["precision"] = kept | dict(case["precision"])
     if "production_strain" in case:
         out["production_strain"] = case["production_strain"]
     return out

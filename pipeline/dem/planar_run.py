@@ -8,7 +8,10 @@ Stages, each a separate LIGGGHTS call continued from the previous one's restart 
    the wall shear force and wall height over the trailing ``steady_window_chunks`` chunks are
    tested for drift (:mod:`pipeline.dem.steady_state`). The first window that passes is the start of
    the steady state.
-3. ``production_NNN``: chunks of the same length that also dump particles and contacts.
+3. ``production_NNN``: chunks of the same length that also dump particles and contacts. With
+   ``dem.precision.steady_window_is_production`` the steady window's chunks are the production's
+   first ones (the shear chunks then dump too, and all but the trailing window's snapshots are
+   deleted as the stage goes on).
 
 Every chunk is committed (restart renamed from its temporary name, state.json rewritten) only
 after its log and its wall series passed the failure checks, so a killed run resumes from the
@@ -470,8 +473,12 @@ class PlanarShearRun:
         n_wall = self.state["fill"]["n_top_wall_grains"]
         area = self.case["cell_x"] * self.case["cell_y"] * self.mat["d"] ** 2
         production = kind == "production"
-        if production:
+        # A shear chunk may end up in the steady window that becomes the production's start, so
+        # it writes its snapshots too (under its own name; adopted ones are renamed).
+        dumped = production or self._window_is_production()
+        if dumped:
             (self.run_dir / "dumps").mkdir(exist_ok=True)
+        prefix = "" if production else "s"
         variables = self._base_variables() | {
             "restart_in": restart_in,
             "restart_out": restart_out + ".tmp",
@@ -490,9 +497,9 @@ class PlanarShearRun:
             "pairsum_file": f"series/pairsum_{stage}.txt",
             "thermo_every": plan["chunk_steps"] // 4,
             "chunk_steps": plan["chunk_steps"],
-            "dump_every": plan["dump_every"] if production else 0,
-            "particle_dump": f"dumps/particles_{index:03d}.dump",
-            "contact_dump": f"dumps/contacts_{index:03d}.dump",
+            "dump_every": plan["dump_every"] if dumped else 0,
+            "particle_dump": f"dumps/particles_{prefix}{index:03d}.dump",
+            "contact_dump": f"dumps/contacts_{prefix}{index:03d}.dump",
             "contact_columns": [f"c_pgl[{k}]" for k in range(1, len(CONTACT_COLUMNS) + 1)],
         } | self._chunk_variables(stage)
         render.render_stage(self.run_dir, stage, "shear.in", variables)
@@ -503,7 +510,7 @@ class PlanarShearRun:
         record = {"stage": stage, "kind": kind, "restart": restart_out, "wall_seconds": seconds,
                   "steps": plan["chunk_steps"], "series": variables["series_file"],
                   "t_start": float(series["time"].iloc[0]), "t_end": float(series["time"].iloc[-1])}
-        if production:
+        if dumped:
             record["dumps"] = [variables["particle_dump"], variables["contact_dump"]]
         chunks.append(record)
         self.state["wall_seconds"] += seconds
@@ -579,6 +586,8 @@ class PlanarShearRun:
                       f"{self._steady_summary(test)}: {'steady' if test['stationary'] else 'not yet steady'}", flush=True)
                 if test["stationary"]:
                     self.state["steady"] = test
+                    if self._window_is_production():
+                        self._adopt_window(shear[-window:])
                     self._save_state()
                     break
             if len(shear) >= self.dem["max_shear_chunks"]:
@@ -587,6 +596,8 @@ class PlanarShearRun:
                     f"{self.label}: no steady state after {len(shear)} shear chunks (dem.max_shear_chunks); "
                     f"last drift test: force {test.get('force')}, height {test.get('height')}"
                 )
+            if self._window_is_production():
+                self._drop_stale_dumps(shear[max(0, len(shear) - window + 1):])
             self._progress(self._run_chunk("shear", len(shear), plan), plan)
         while True:
             produced = [c for c in self.state["chunks"] if c["kind"] == "production"]
@@ -597,6 +608,48 @@ class PlanarShearRun:
                 break
             self._progress(self._run_chunk("production", len(produced), plan), plan)
         return self._record(plan)
+
+    #: False for runs that never look for a steady window to keep (the yield probe's staircase).
+    KEEPS_STEADY_WINDOW = True
+
+    def _window_is_production(self) -> bool:
+        """Whether the steady-state test's window becomes the production's first chunks
+        (``dem.precision.steady_window_is_production``).
+
+        The window passed the test, so its chunks are as steady as any that follow; producing
+        after it, as the fixed design does, throws away ``steady_window_chunks`` chunks of steady
+        flow per run (1 strain in the default, half of a run's 2-strain cap).
+        """
+        precision_cfg = self.dem.get("precision") or {}
+        return self.KEEPS_STEADY_WINDOW and bool(precision_cfg.get("steady_window_is_production", False))
+
+    def _drop_stale_dumps(self, keep: list[dict[str, Any]]) -> None:
+        """Delete the snapshots of shear chunks that can no longer fall in a steady window (all but
+        ``keep``, the trailing chunks the next window will hold), so the shear stage keeps at most a
+        window of them on disk."""
+        kept = {id(c) for c in keep}
+        for chunk in self.state["chunks"]:
+            if chunk["kind"] == "shear" and "dumps" in chunk and id(chunk) not in kept:
+                for name in chunk.pop("dumps"):
+                    (self.run_dir / name).unlink(missing_ok=True)
+        self._save_state()
+
+    def _adopt_window(self, window_chunks: list[dict[str, Any]]) -> None:
+        """Make the steady window's chunks the first production chunks: kind ``production``, their
+        snapshots renamed to the production's numbering (``dumps/particles_000.dump`` on). Safe to
+        repeat after an interruption: a snapshot already renamed is found under its new name."""
+        self._drop_stale_dumps(window_chunks)
+        for index, chunk in enumerate(window_chunks):
+            renamed = []
+            for name in chunk["dumps"]:
+                target = f"dumps/{Path(name).name.split('_')[0]}_{index:03d}.dump"
+                source, dest = self.run_dir / name, self.run_dir / target
+                if source.is_file():
+                    source.replace(dest)
+                elif not dest.is_file():
+                    raise DEMRunError(f"{self.label}: snapshot {name} of steady chunk {chunk['stage']} is missing")
+                renamed.append(target)
+            chunk.update(kind="production", dumps=renamed, from_steady_window=True)
 
     def _min_production_chunks(self, plan: dict[str, int]) -> int:
         precision_cfg = self.dem.get("precision")
@@ -748,6 +801,8 @@ class PlanarShearRun:
             "steps": int(sum(c["steps"] for c in self.state["chunks"])),
             "shear_chunks": sum(1 for c in self.state["chunks"] if c["kind"] == "shear"),
             "production_chunks": len(production),
+            # Of them, the steady window's (dem.precision.steady_window_is_production): 0 or steady_window_chunks.
+            "production_chunks_from_steady_window": sum(1 for c in production if c.get("from_steady_window")),
             "production_strain": len(production) * self.dem["chunk_strain"],
             "production_stop": self.state.get("production_stop"),
             "steps_by_stage": self.steps_by_stage(),

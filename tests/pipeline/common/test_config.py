@@ -114,8 +114,11 @@ def test_a_case_produces_with_its_own_targets_and_cap(config: dict) -> None:
     validate_config(own, "own.yaml")
     dem = own["dem"]
     rheometer = case_production(dem, own["cases"]["rheometer"])
-    # Its targets replace the global set (no u_x, nu target left), the minimum strain is global.
-    assert rheometer["precision"] == {"min_production_strain": dem["precision"]["min_production_strain"], "mu": 0.004}
+    # Its targets replace the global set (no u_x, nu target left); the minimum strain and whether
+    # the steady window counts are global.
+    own_targets = {"min_production_strain": dem["precision"]["min_production_strain"], "mu": 0.004}
+    own_targets |= {"steady_window_is_production": dem["precision"]["steady_window_is_production"]}
+    assert rheometer["precision"] == own_targets
     assert rheometer["production_strain"] == 3.0
     # The dumps stay as dense in strain as every other case's.
     assert rheometer["snapshot_strain"] == dem["production_strain"]

@@ -30,8 +30,11 @@ pytestmark = pytest.mark.liggghts
 
 REPO = Path(__file__).resolve().parents[3]
 RUN = "I0.2-P200-r1"
-#: Chunks committed before the kill: both shear chunks; the kill lands in production_000.
+#: Chunks committed before the kill: both shear chunks, the steady window that becomes the
+#: production's first two chunks (dem.precision.steady_window_is_production in config/ci.yaml);
+#: the kill lands in the first chunk after them, production_002.
 COMMITTED_BEFORE_KILL = 2
+KILLED_STAGE = "production_002"
 
 
 def tiny_config(folder: Path) -> Path:
@@ -66,7 +69,7 @@ def kill_mid_chunk(config: Path, out: Path, timeout: float = 300.0) -> dict[str,
             if time.monotonic() - start > timeout:
                 raise AssertionError("the run did not reach the chunk to kill in time")
             chunks = json.loads(state.read_text()).get("chunks", []) if state.exists() else []
-            dump = out / "dumps" / "particles_000.dump"
+            dump = out / "dumps" / f"particles_{KILLED_STAGE[-3:]}.dump"
             # Into the chunk: LIGGGHTS has started writing its dumps.
             if len(chunks) >= COMMITTED_BEFORE_KILL and dump.exists() and dump.stat().st_size > 0:
                 break
@@ -78,7 +81,7 @@ def kill_mid_chunk(config: Path, out: Path, timeout: float = 300.0) -> dict[str,
     return {"chunks": json.loads(state.read_text())["chunks"], "run_json": (out / "run.json").exists(),
             "committed_logs": {p.name: p.stat().st_mtime_ns for p in (out / "logs").glob("*.log")
                                if p.stem in ("fill", "shear_000", "shear_001")},
-            "partial_restart": (out / "restart" / "production_000.restart").exists()}
+            "partial_restart": (out / "restart" / f"{KILLED_STAGE}.restart").exists()}
 
 
 @pytest.fixture(scope="module")
@@ -102,7 +105,9 @@ def runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
 
 def test_killed_run_leaves_nothing_that_looks_complete(runs: dict[str, Any]) -> None:
     at_kill = runs["at_kill"]
-    assert [c["stage"] for c in at_kill["chunks"]] == ["shear_000", "shear_001"], "kill not inside production_000"
+    assert [c["stage"] for c in at_kill["chunks"]] == ["shear_000", "shear_001"], f"kill not inside {KILLED_STAGE}"
+    # The steady window was already the production's start, its snapshots renamed.
+    assert [c["kind"] for c in at_kill["chunks"]] == ["production", "production"]
     assert not at_kill["run_json"]
     assert not at_kill["partial_restart"]  # the chunk in flight only had its .tmp restart
 
@@ -112,7 +117,7 @@ def test_rerun_resumes_from_the_restart_files(runs: dict[str, Any]) -> None:
     state = json.loads((killed / "state.json").read_text())
     whole = json.loads((runs["whole"] / "state.json").read_text())
     stages = [c["stage"] for c in whole["chunks"]]
-    assert stages[:3] == ["shear_000", "shear_001", "production_000"]
+    assert stages[:3] == ["shear_000", "shear_001", KILLED_STAGE]
     assert [c["stage"] for c in state["chunks"]] == stages
     assert state["production_stop"] == whole["production_stop"]
     # Fill and the committed shear chunks were not run again: their logs are untouched.
@@ -124,9 +129,10 @@ def test_rerun_resumes_from_the_restart_files(runs: dict[str, Any]) -> None:
 def test_resumed_run_gives_the_same_numbers_bitwise(runs: dict[str, Any]) -> None:
     whole, killed = runs["whole"], runs["killed"]
     files = sorted(p.relative_to(whole) for p in [*whole.glob("series/*.txt"), *whole.glob("dumps/*.dump")])
-    # Per chunk a wall series and its pair-force sum; per production chunk two dumps.
+    # Per chunk a wall series and its pair-force sum; per production chunk two dumps, and every
+    # chunk is one (the shear stage was the steady window).
     n_chunks = len(json.loads((whole / "state.json").read_text())["chunks"])
-    assert len(files) == 2 * n_chunks + 2 * (n_chunks - 2)
+    assert len(files) == 2 * n_chunks + 2 * n_chunks
     for rel in files:
         # Same seed, same chunk boundaries: LIGGGHTS continues bitwise from its restart files.
         assert (whole / rel).read_bytes() == (killed / rel).read_bytes(), rel

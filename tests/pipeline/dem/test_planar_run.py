@@ -57,6 +57,15 @@ def test_every_run_records_its_rules_and_window(reduced_results: Path) -> None:
         p0, p1 = r["production_window"]
         assert t0 <= p0 < p1 <= t1
         assert r["steady_state_test"]["stationary"]
+        # The reduced config keeps the steady window: production starts where the window did,
+        # with its chunks, and their snapshots are the first of the production's.
+        # A moving rod's window stays out (its start-up may not be over in it).
+        window = r["production_chunks_from_steady_window"]
+        moving_rod = r["case"] == "intruder" and not r["intruder"]["control"]
+        expected = 0 if moving_rod else r["provenance"]["config"]["dem"]["steady_window_chunks"]
+        assert window == expected <= r["production_chunks"], r["run"]
+        assert (p0 >= r["steady_state_test"]["t_end"] - 1e-9) if moving_rod else (p0 == r["steady_state_test"]["t_start"])
+        assert r["particle_dumps"][:2] == ["dumps/particles_000.dump", "dumps/particles_001.dump"]
         assert r["mpi_ranks"] >= 1 and r["wall_clock_seconds"] > 0
         for key in ("config", "software"):
             assert key in r["provenance"]
