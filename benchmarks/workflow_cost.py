@@ -70,6 +70,8 @@ def run_costs(root: Path) -> pd.DataFrame:
                      "core_seconds": ranks * sum(seconds.values()),
                      **{f"core_seconds_{k}": ranks * v for k, v in seconds.items()},
                      "shear_strain": strain["shear"], "production_strain": strain["production"],
+                     # Production chunks that were the steady-state test's window (none before 2026-12-02).
+                     "window_chunks": sum(1 for c in chunks if c.get("from_steady_window")),
                      "stop": (record.get("production_stop") or {}).get("reason", "fixed length")})
     # Fills shared by a rheometer replica's states (their runs record a fill of 0 steps): counted once.
     for record_path in sorted((root / "dem").glob("*/fill-*/fill.json")):
@@ -80,7 +82,8 @@ def run_costs(root: Path) -> pd.DataFrame:
                      "particle_steps_fill": n * steps, "particle_steps_shear": 0, "particle_steps_production": 0,
                      "core_seconds": ranks * seconds, "core_seconds_fill": ranks * seconds,
                      "core_seconds_shear": 0.0, "core_seconds_production": 0.0,
-                     "shear_strain": float("nan"), "production_strain": float("nan"), "stop": "shared fill"})
+                     "shear_strain": float("nan"), "production_strain": float("nan"), "window_chunks": 0,
+                     "stop": "shared fill"})
     if not rows:
         raise SystemExit(f"{root}: no finished DEM runs (dem/*/*/run.json)")
     return pd.DataFrame(rows)
@@ -165,7 +168,9 @@ def main(argv: list[str] | None = None) -> int:
         secs = {k: c[f"core_seconds_{k}"].sum() for k in ("fill", "shear", "production")}
         print("  share of particle-steps: " + ", ".join(f"{k} {v:.0%}" for k, v in stages.items())
               + "; core-s: " + ", ".join(f"{k} {v:.0f}" for k, v in secs.items()))
-        print(f"  mean strain per run: shear to steady {c['shear_strain'].mean():.2f}, production {c['production_strain'].mean():.2f}; "
+        windows = c[c["window_chunks"] > 0]
+        print(f"  mean strain per run: shear to steady {c['shear_strain'].mean():.2f}, production {c['production_strain'].mean():.2f} "
+              f"(of it the steady window's: {len(windows)} runs, {int(windows['window_chunks'].sum())} chunks); "
               "stops: " + "; ".join(f"{k}: {v}" for k, v in c["stop"].value_counts().items()))
     goal = {name: c[c["case"].isin(GOAL_CASES)] for name, c in costs.items()}
     common = set(zip(goal["fixed"]["case"], goal["fixed"]["run"])) & set(zip(goal["targeted"]["case"], goal["targeted"]["run"]))

@@ -102,12 +102,18 @@ def check_dump_coverage(particles: Dump, run: dict[str, Any]) -> None:
                                f"steps before the end of run.json steady_state_window ({t_end} s): a truncated dump?")
 
 
-def production_series(run_dir: Path) -> pd.DataFrame:
-    """The wall series of all production chunks, in time order."""
-    files = sorted((run_dir / "series").glob("production_*.txt"))
-    if not files:
-        raise CoarseGrainError(f"{run_dir / 'series'}: no production_*.txt wall series")
-    return pd.concat([read_wall_series(f) for f in files], ignore_index=True).sort_values("time")
+def production_series(run_dir: Path, run: dict[str, Any]) -> pd.DataFrame:
+    """The wall series over run.json's ``production_window`` (s), in time order: the production
+    chunks', which since 2026-12-02 may begin with the steady window's shear chunks
+    (``dem.precision.steady_window_is_production``)."""
+    files = sorted((run_dir / "series").glob("shear_*.txt")) + sorted((run_dir / "series").glob("production_*.txt"))
+    t_start, t_end = run["production_window"]
+    frames = [frame for frame in (read_wall_series(f) for f in files)
+              if frame["time"].iloc[-1] >= t_start and frame["time"].iloc[0] <= t_end]
+    if not frames:
+        raise CoarseGrainError(f"{run_dir / 'series'}: no wall series over run.json production_window {t_start}-{t_end} s")
+    data = pd.concat(frames, ignore_index=True).sort_values("time")
+    return data[(data["time"] >= t_start) & (data["time"] <= t_end)].reset_index(drop=True)
 
 
 def run_fields(config: dict[str, Any], run_dir: Path, plane: bool = False,
@@ -246,7 +252,7 @@ def physical_checks(ds: xr.Dataset, run: dict[str, Any], run_dir: Path, particle
             int(opts["blocks"])).items()})
     below, _ = field_checks.body_mass_below(particles, chosen, kernel, walls.bottom_max + kernel.cutoff)
     _, above = field_checks.body_mass_below(particles, chosen, kernel, walls.top_min - kernel.cutoff)
-    series = production_series(run_dir)
+    series = production_series(run_dir, run)
     fb = series[["fbot_x", "fbot_x", "fbot_z"]].mean().to_numpy() * [1, 0, 1]
     ft = series[["ftop_x", "ftop_x", "ftop_z"]].mean().to_numpy() * [1, 0, 1]
     for key, value in field_checks.wall_stress(ds, kernel, walls, area, g, below, above, fb, ft).items():

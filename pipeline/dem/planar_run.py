@@ -725,7 +725,9 @@ class PlanarShearRun:
         rate = chunk["steps"] * self.case["n_grains"] / max(chunk["wall_seconds"], 1e-9)
         if chunk["kind"] == "shear":
             margin = f"steady-state test from chunk {window} on"
-            left = max(window - len(shear), 0) + plan["production_chunks"]
+            # An adopted steady window is the production's first chunks: that many fewer to come.
+            adopted = window if self._window_is_production() else 0
+            left = max(window - len(shear), 0) + max(plan["production_chunks"] - adopted, 0)
             where = f"shear {len(shear)} (strain {len(shear) * strain:g}, at most {self.dem['max_shear_chunks'] * strain:g})"
             bound = "at least "
         else:

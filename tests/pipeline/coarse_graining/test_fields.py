@@ -76,6 +76,7 @@ def write_static_bed(run_dir: Path, layers: int = 16, side: int = 4, load: float
                      f"{load * area} {(layers - 0.5) * a} 0 1e-7\n")
     run = {"case": "shear_gravity", "run": "synthetic", "d": d, "density": rho_s, "time_step": dt,
            "steady_state_window": [0.001, 0.001 + (snapshots - 1) * every * dt], "cell": [side * a, side * a],
+           "production_window": [1000 * dt, (1000 + 19 * 400) * dt],
            "wall_pressure": load, "gravity": g, "wall_speed": 0.1, "wall_clock_seconds": 1.0,
            "particle_dumps": ["dumps/particles_000.dump"], "contact_dumps": ["dumps/contacts_000.dump"],
            "contact_columns": list(CONTACT_COLUMNS), "provenance": {"config": {}, "software": {}}}

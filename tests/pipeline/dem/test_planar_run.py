@@ -30,8 +30,11 @@ def run_records(root: Path) -> list[dict]:
 
 
 def production_series(record: dict) -> pd.DataFrame:
-    files = sorted((record["_dir"] / "series").glob("production_*.txt"))
-    return pd.concat([read_wall_series(f) for f in files], ignore_index=True)
+    """The wall series over the production window (which may begin with the steady window's chunks)."""
+    files = sorted((record["_dir"] / "series").glob("shear_*.txt")) + sorted((record["_dir"] / "series").glob("production_*.txt"))
+    data = pd.concat([read_wall_series(f) for f in files], ignore_index=True).sort_values("time")
+    t_start, t_end = record["production_window"]
+    return data[(data["time"] >= t_start) & (data["time"] <= t_end)].reset_index(drop=True)
 
 
 def flowing_mass(record: dict) -> float:
