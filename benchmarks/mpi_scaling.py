@@ -38,7 +38,7 @@ _LOOP = re.compile(r"Loop time of (\S+) on (\d+) procs for (\d+) steps with (\d+
 
 
 def make_source(work: Path) -> Path:
-    """A finished reduced rheometer run (2 shear + 2 production chunks) to take the state from."""
+    """A finished reduced rheometer run (2 shear chunks, its steady window and so its production's start, and the production after them) to take the state from."""
     config = yaml.safe_load((REPO / "config" / "ci.yaml").read_text())
     config["output_root"] = str(work / "results")
     config["cases"] = {name: config["cases"][name] for name in ("rheometer", "shear_gravity")}
