@@ -29,6 +29,12 @@ def run_records(root: Path) -> list[dict]:
             for c, r in dem_runs(config)]
 
 
+def production_stages(record: dict) -> list[str]:
+    """Stage names of the production chunks (the first may be the steady window's shear chunks)."""
+    state = json.loads((record["_dir"] / "state.json").read_text())
+    return [c["stage"] for c in state["chunks"] if c["kind"] == "production"]
+
+
 def production_series(record: dict) -> pd.DataFrame:
     """The wall series over the production window (which may begin with the steady window's chunks)."""
     files = sorted((record["_dir"] / "series").glob("shear_*.txt")) + sorted((record["_dir"] / "series").glob("production_*.txt"))
@@ -128,7 +134,7 @@ def test_wall_forces_balance_load_and_weight(reduced_results: Path) -> None:
         # samples. It is itself bounded, at 10 % of load + weight beyond its noise, as the x defect
         # at 10 % of the shear force (measured on the reduced runs: below 1 % in most, -3.1 % in
         # one shear_gravity replica, +8 % in the I = 0.2 rheometer state, whose samples fluctuate most).
-        pairs = pd.concat([read_wall_series(r["_dir"] / "series" / f"pairsum_production_{k:03d}.txt", PAIRSUM_COLUMNS)
+        pairs = pd.concat([read_wall_series(r["_dir"] / "series" / f"pairsum_{production_stages(r)[k]}.txt", PAIRSUM_COLUMNS)
                            for k in range(r["production_chunks"])], ignore_index=True)
         contacts_z = pairs["fsum_z"].to_numpy() + load + weight
         expected = load + weight - contacts_z.mean()
@@ -155,9 +161,9 @@ def test_two_mpi_ranks_conserve_grains_and_agree_with_one(reduced_results: Path,
     # The fastest rheometer run: the largest inertial number needs the fewest steps.
     two = max((r for r in run_records(reduced_results) if r["case"] == "rheometer"), key=lambda r: run_state(r["run"])[0])
     assert two["mpi_ranks"] == 2
-    assert "2 procs" in (two["_dir"] / "logs" / "production_000.log").read_text()
+    assert "2 procs" in (two["_dir"] / "logs" / f"{production_stages(two)[0]}.log").read_text()
     # Domains split the periodic plane, not z (mostly empty space above the bed: one rank got every grain).
-    assert "2 by 1 by 1 MPI processor grid" in (two["_dir"] / "logs" / "production_000.log").read_text()
+    assert "2 by 1 by 1 MPI processor grid" in (two["_dir"] / "logs" / f"{production_stages(two)[0]}.log").read_text()
     out = tmp_path / "mpi1"
     # Alone, it pours its shared fill itself (same seed) on one rank; a state that continues from
     # a slower one starts from that one's (2-rank) final packing, as in the workflow.

@@ -183,7 +183,8 @@ def test_dem_ran_on_the_ranks_the_profile_asked_for(slurm_run: dict) -> None:
     for path in records:
         run = json.loads(path.read_text())
         assert run["mpi_ranks"] == RANKS and run["mpi_launcher"] == "srun", path
-        log = (path.parent / "logs" / "production_000.log").read_text()
+        stage = next(c["stage"] for c in json.loads((path.parent / "state.json").read_text())["chunks"] if c["kind"] == "production")
+        log = (path.parent / "logs" / f"{stage}.log").read_text()
         grids = [math.prod(int(n) for n in g) for g in re.findall(r"(\d+) by (\d+) by (\d+) MPI processor grid", log)]
         assert grids and all(g == RANKS for g in grids), (path, grids)
 
