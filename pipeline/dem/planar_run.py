@@ -627,12 +627,13 @@ class PlanarShearRun:
         """Delete the snapshots of shear chunks that can no longer fall in a steady window (all but
         ``keep``, the trailing chunks the next window will hold), so the shear stage keeps at most a
         window of them on disk."""
-        kept = {id(c) for c in keep}
-        for chunk in self.state["chunks"]:
-            if chunk["kind"] == "shear" and "dumps" in chunk and id(chunk) not in kept:
-                for name in chunk.pop("dumps"):
-                    (self.run_dir / name).unlink(missing_ok=True)
-        self._save_state()
+        kept = {c["stage"] for c in keep}
+        stale = [c for c in self.state["chunks"] if c["kind"] == "shear" and "dumps" in c and c["stage"] not in kept]
+        for chunk in stale:
+            for name in chunk.pop("dumps"):
+                (self.run_dir / name).unlink(missing_ok=True)
+        if stale:
+            self._save_state()
 
     def _adopt_window(self, window_chunks: list[dict[str, Any]]) -> None:
         """Make the steady window's chunks the first production chunks: kind ``production``, their
