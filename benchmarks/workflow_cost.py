@@ -11,6 +11,12 @@ noise; core-seconds (LIGGGHTS wall time x ranks) are what the machine paid. The 
 rheometer is that of the calibration it feeds (the errors of mu_s, mu_2, I_0 in
 ``calibration/params.json``). Ratios are targeted / fixed.
 
+A root's bill (its per-run costs and its noise, what this benchmark reads from it) can be saved
+with ``--save-bill FILE.json`` and given in place of the root (``--fixed FILE.json``), so a
+comparison outlives the output root it was measured on. ``benchmarks/records/`` keeps the bills
+of the measured designs; a bill transcribed from an earlier report says so in its ``source`` and
+may hold per-case totals (``run`` = ``all``) and noise without its standard error.
+
 Usage: ``python benchmarks/workflow_cost.py --fixed /work/results-default --targeted results``
 """
 from __future__ import annotations
@@ -146,12 +152,50 @@ def noise(root: Path) -> pd.DataFrame:
     return pd.concat([out, pd.DataFrame(extra)], ignore_index=True)
 
 
+def load_bill(path: Path) -> dict[str, object]:
+    """A design's bill: from an output root (its run records and fields) or a saved ``.json`` bill.
+    Returns ``runs`` (one row per run, :func:`run_costs`), ``noise`` (:func:`noise`) and
+    ``source`` (empty for a root, else what the saved bill says it was made from)."""
+    if path.suffix != ".json":
+        return {"runs": run_costs(path), "noise": noise(path), "source": ""}
+    try:
+        saved = json.loads(path.read_text())
+        runs, noise_rows, source = pd.DataFrame(saved["runs"]), pd.DataFrame(saved["noise"]), str(saved["source"])
+    except (OSError, ValueError, KeyError) as err:
+        raise SystemExit(f"{path}: not a bill written by --save-bill ({err})") from None
+    for column in ("pairs", "noise_se"):
+        if column not in noise_rows:
+            noise_rows[column] = math.nan
+    return {"runs": runs, "noise": noise_rows.astype({"noise_se": float}), "source": f"bill {path} ({source})"}
+
+
+def save_bill(root: Path, bill: dict[str, object], path: Path) -> None:
+    """Write ``root``'s bill as JSON (written under a temporary name, then renamed)."""
+    config = json.loads((root / "config.effective.json").read_text())
+    saved = {"source": f"output root {root}, measured by benchmarks/workflow_cost.py", "config_seed": config.get("seed"),
+             "runs": bill["runs"].to_dict("records"), "noise": bill["noise"].to_dict("records")}
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(json.dumps(saved, indent=1, allow_nan=True) + "\n")
+    tmp.replace(path)
+    print(f"bill of {root} written to {path}")
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--fixed", type=Path, required=True, help="output root of the fixed-length design")
-    parser.add_argument("--targeted", type=Path, required=True, help="output root of the precision-targeted design")
+    parser.add_argument("--fixed", type=Path, required=True, help="output root (or saved bill, .json) of the fixed-length design")
+    parser.add_argument("--targeted", type=Path, required=True, help="output root (or saved bill, .json) of the precision-targeted design")
+    parser.add_argument("--save-bill", type=Path, metavar="FILE.json", help="also write the targeted root's bill (per-run costs, noise) here")
     args = parser.parse_args(argv)
-    costs = {name: run_costs(root) for name, root in (("fixed", args.fixed), ("targeted", args.targeted))}
+    bills = {name: load_bill(path) for name, path in (("fixed", args.fixed), ("targeted", args.targeted))}
+    if args.save_bill is not None:
+        if args.targeted.suffix == ".json":
+            raise SystemExit(f"--save-bill: {args.targeted} is already a bill; give the output root")
+        save_bill(args.targeted, bills["targeted"], args.save_bill)
+    costs = {name: bill["runs"] for name, bill in bills.items()}
+    for name, bill in bills.items():
+        if bill["source"]:
+            print(f"{name}: {bill['source']}")
     sums = {name: c.groupby("case")[["particle_steps", "core_seconds"]].sum() for name, c in costs.items()}
     by_case = sums["fixed"].merge(sums["targeted"], left_index=True, right_index=True, how="outer",
                                   suffixes=("_fixed", "_targeted"))
@@ -164,6 +208,9 @@ def main(argv: list[str] | None = None) -> int:
         goal = c[c["case"].isin(GOAL_CASES)]
         print(f"\n{name}: all {c['particle_steps'].sum():.3g} particle-steps, {c['core_seconds'].sum():.0f} core-s; "
               f"goal cases {goal['particle_steps'].sum():.3g} particle-steps, {goal['core_seconds'].sum():.0f} core-s")
+        if (c["run"] == "all").any():
+            print("  (per-case totals transcribed: no per-run records)")
+            continue
         stages = {k: c[f"particle_steps_{k}"].sum() / c["particle_steps"].sum() for k in ("fill", "shear", "production")}
         secs = {k: c[f"core_seconds_{k}"].sum() for k in ("fill", "shear", "production")}
         print("  share of particle-steps: " + ", ".join(f"{k} {v:.0%}" for k, v in stages.items())
@@ -176,15 +223,18 @@ def main(argv: list[str] | None = None) -> int:
     common = set(zip(goal["fixed"]["case"], goal["fixed"]["run"])) & set(zip(goal["targeted"]["case"], goal["targeted"]["run"]))
     # A shared fill belongs to the common runs it was poured for.
     same = {name: g[[(a, b) in common or b.startswith("fill-") for a, b in zip(g["case"], g["run"])]] for name, g in goal.items()}
-    for label, part in (("all their runs", goal), (f"the {len(common)} runs both designs have", same)):
+    parts = [("all their runs", goal)] + ([(f"the {len(common)} runs both designs have", same)] if common else [])
+    for label, part in parts:
         steps = part["targeted"]["particle_steps"].sum() / part["fixed"]["particle_steps"].sum()
         secs = part["targeted"]["core_seconds"].sum() / part["fixed"]["core_seconds"].sum()
         print(f"\ngoal cases (rheometer, shear_gravity replicas, intruder), {label}: targeted / fixed "
               f"particle-steps = {steps:.3f}, core-seconds = {secs:.3f}")
-    noises = noise(args.fixed).merge(noise(args.targeted), on=["case", "metric"], how="outer", suffixes=("_fixed", "_targeted"))
+    noises = bills["fixed"]["noise"].merge(bills["targeted"]["noise"], on=["case", "metric"], how="outer", suffixes=("_fixed", "_targeted"))
     noises["ratio"] = noises["dem_noise_targeted"] / noises["dem_noise_fixed"]
     diff_se = np.hypot(noises["noise_se_fixed"], noises["noise_se_targeted"])
     diff = noises["dem_noise_targeted"] - noises["dem_noise_fixed"]
+    # A transcribed bill may lack its standard errors: the other design's alone then judges (a lower bound of the combined).
+    diff_se = diff_se.where(np.isfinite(diff_se), noises["noise_se_fixed"].fillna(noises["noise_se_targeted"]))
     noises["verdict"] = np.where(~np.isfinite(diff_se), "undecided (one pair)",
                                  np.where(diff > 2.0 * diff_se, "higher", np.where(diff < -2.0 * diff_se, "lower", "equal within 2 se")))
     noises.loc[noises["case"] == "rheometer", "verdict"] = np.where(

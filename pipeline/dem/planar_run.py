@@ -46,7 +46,7 @@ from pipeline.common.formats import RUN_FORMAT_VERSION
 from pipeline.dem.liggghts_log import DEMRunError, check_run, printed_value
 from pipeline.common.provenance import provenance
 from pipeline.dem.rough_wall import layer_include, random_layer
-from pipeline.dem.steady_state import drift_test
+from pipeline.dem.steady_state import balance_test, drift_test
 from pipeline.dem.wall_series import PAIRSUM_COLUMNS, read_wall_series
 
 #: Column of ``delta`` (overlap) among the pair/gran/local outputs ``pos id force contactPoint delta``
@@ -547,14 +547,35 @@ class PlanarShearRun:
         depth = self.state["fill"]["settled_gap"]
         force = drift_test(data["time"], data["ftop_x"], self.dem["steady_force_tol"], float(data["ftop_x"].mean()))
         height = drift_test(data["time"], data["h_top"], self.dem["steady_height_tol"], depth)
-        return {"force": force.as_dict(), "height": height.as_dict(),
+        return {"force": force.as_dict(), "height": height.as_dict(), "load": self.load_balance(data),
                 "stationary": force.stationary and height.stationary,
                 "t_start": window_chunks[0]["t_start"], "t_end": window_chunks[-1]["t_end"]}
+
+    def top_load(self) -> float:
+        """The top wall's load (N, downwards): ``wall_pressure`` times the cell's area."""
+        return self.wall_pressure * self.case["cell_x"] * self.case["cell_y"] * self.mat["d"] ** 2
+
+    def load_balance(self, series: pd.DataFrame) -> dict[str, float | bool]:
+        """The top wall's vertical balance over a stretch of its wall series (recorded, not required).
+
+        The grains' mean push on the wall equals its load plus the drag of its damping,
+        ``c <v_z>``, with ``<v_z>`` the wall's mean rise over the stretch (m/s, the slope of its height;
+        its momentum changes by a negligible amount). ``balanced``: the push equals the load within twice its block error
+        (:func:`pipeline.dem.steady_state.balance_test` with no tolerance); ``damping_drag_over_load``:
+        ``c <v_z>`` over the load, which accounts for the difference (docs/dem.md, "The top wall's
+        vertical balance": the fast, low-pressure rheometer states' walls creep up under a drag of
+        0.2-1.7 x their load).
+        """
+        balance = balance_test(series["ftop_z"].to_numpy(), self.top_load(), tol=0.0).as_dict()
+        # The mean rise as the least-squares slope of h(t): the end points alone carry the wall's jiggle.
+        rise = float(np.polyfit(series["time"].to_numpy(), series["h_top"].to_numpy(), 1)[0])
+        return balance | {"wall_rise_speed": rise, "damping_drag_over_load": self._wall_damping() * rise / self.top_load()}
 
     def _steady_summary(self, test: dict[str, Any]) -> str:
         """One clause for the log: each drift as a fraction of what the test allows."""
         return (f"force drift {abs(test['force']['drift']) / test['force']['allowed']:.2f}, height drift "
-                f"{abs(test['height']['drift']) / test['height']['allowed']:.2f} of allowed")
+                f"{abs(test['height']['drift']) / test['height']['allowed']:.2f} of allowed; top-wall push / load "
+                f"{test['load']['ratio']:.3f}")
 
     # ------------------------------------------------------------------------------------ run
     def run(self) -> dict[str, Any]:
@@ -824,6 +845,8 @@ class PlanarShearRun:
             "steady_state_test": self.state["steady"],
             "production_window": [production[0]["t_start"], production[-1]["t_end"]],
             "production_drift": {"force": prod_force.as_dict(), "height": prod_height.as_dict()},
+            # The top wall's mean push over its load across the production, and its damping's drag.
+            "production_load_balance": self.load_balance(prod_series),
             "pair_force_sum": self.pair_force_sum(float(prod_series["ftop_x"].mean())),
             "max_overlap_over_d": float(self.series()["max_overlap"].max() / self.mat["d"]),
             "particle_dumps": [c["dumps"][0] for c in production],

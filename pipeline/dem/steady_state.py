@@ -4,6 +4,10 @@ A signal is stationary over a window when its linear drift across the window is 
 tolerance plus twice the drift's own statistical uncertainty. The uncertainty comes from the
 least-squares slope of *block means* (blocks long compared with the correlation time of the
 signal), so that correlated noise is not mistaken for a trend nor a trend for noise.
+
+A force is balanced over a window when its mean equals what it must balance (the top wall's
+load) within a tolerance plus twice the mean's block standard error: a body whose mean
+acceleration vanishes feels no net mean force.
 """
 from __future__ import annotations
 
@@ -60,3 +64,49 @@ def drift_test(time: np.ndarray, signal: np.ndarray, tol: float, scale: float, n
     drift, drift_err = slope * length, slope_err * length
     allowed = tol * abs(scale) + 2.0 * drift_err
     return DriftTest(float(signal.mean()), float(drift), float(drift_err), float(allowed), bool(abs(drift) <= allowed))
+
+
+@dataclass(frozen=True)
+class BalanceTest:
+    """Outcome of a balance test of one force over a window.
+
+    Attributes:
+        mean: mean of the force over the window (N).
+        target: the force it must balance (N).
+        mean_err: standard error of ``mean`` from the block means (N).
+        allowed: tolerance the difference was held to (``tol * |target| + 2 * mean_err``).
+        ratio: ``mean / target``.
+        balanced: ``abs(mean - target) <= allowed``.
+    """
+
+    mean: float
+    target: float
+    mean_err: float
+    allowed: float
+    ratio: float
+    balanced: bool
+
+    def as_dict(self) -> dict[str, float | bool]:
+        return asdict(self)
+
+
+def balance_test(signal: np.ndarray, target: float, tol: float, n_blocks: int = 8) -> BalanceTest:
+    """Test that the mean of ``signal`` equals ``target`` within ``tol * |target|`` plus twice the
+    block standard error of the mean.
+
+    Args:
+        signal: samples of a force (N), equally spaced in time.
+        target: the force the mean must equal (N), non-zero.
+        tol: allowed difference as a fraction of ``|target|``.
+        n_blocks: number of consecutive blocks whose means give the standard error.
+    """
+    signal = np.asarray(signal, dtype=float)
+    if signal.ndim != 1 or signal.size < 2 * n_blocks:
+        raise ValueError(f"need a 1D series of at least {2 * n_blocks} samples for {n_blocks} blocks, got shape {signal.shape}")
+    if target == 0:
+        raise ValueError("the target force must be non-zero")
+    blocks = np.array([b.mean() for b in np.array_split(signal, n_blocks)])
+    mean = float(signal.mean())
+    err = float(blocks.std(ddof=1) / np.sqrt(n_blocks))
+    allowed = tol * abs(target) + 2.0 * err
+    return BalanceTest(mean, float(target), err, float(allowed), mean / target, bool(abs(mean - target) <= allowed))
