@@ -239,6 +239,8 @@ def main(argv: list[str] | None = None) -> int:
                                  np.where(diff > 2.0 * diff_se, "higher", np.where(diff < -2.0 * diff_se, "lower", "equal within 2 se")))
     noises.loc[noises["case"] == "rheometer", "verdict"] = np.where(
         noises.loc[noises["case"] == "rheometer", "ratio"] <= 1.0, "lower or equal", "higher")
+    missing = ~np.isfinite(noises["dem_noise_fixed"]) | ~np.isfinite(noises["dem_noise_targeted"])
+    noises.loc[missing, "verdict"] = "not in both bills"
     print("\nDEM noise of each scored metric (replica scatter; rheometer: calibration errors); pairs and se: the")
     print("replica pairs behind each noise and the standard error of their mean (a lower bound: pairs share replicas);")
     print("verdict: targeted - fixed against twice the combined se")
