@@ -471,7 +471,6 @@ class PlanarShearRun:
         (self.run_dir / "restart").mkdir(exist_ok=True)
         (self.run_dir / "series").mkdir(exist_ok=True)
         n_wall = self.state["fill"]["n_top_wall_grains"]
-        area = self.case["cell_x"] * self.case["cell_y"] * self.mat["d"] ** 2
         production = kind == "production"
         # A shear chunk may end up in the steady window that becomes the production's start, so
         # it writes its snapshots too (under its own name; adopted ones are renamed).
@@ -487,7 +486,7 @@ class PlanarShearRun:
             "z_top_wall": self.state["fill"]["z_top_wall"],
             "wall_speed": self.wall_speed(),
             "gravity": self.case["gravity"],
-            "load_per_grain": self.wall_pressure * area / n_wall,
+            "load_per_grain": self.top_load() / n_wall,
             "wall_damping_per_grain": self._wall_damping() / n_wall,
             "delta_column": DELTA_COLUMN,
             "series_nevery": plan["series_nevery"],
@@ -553,7 +552,8 @@ class PlanarShearRun:
 
     def top_load(self) -> float:
         """The top wall's load (N, downwards): ``wall_pressure`` times the cell's area."""
-        return self.wall_pressure * self.case["cell_x"] * self.case["cell_y"] * self.mat["d"] ** 2
+        area = self.case["cell_x"] * self.case["cell_y"] * self.mat["d"] ** 2
+        return self.wall_pressure * area
 
     def load_balance(self, series: pd.DataFrame) -> dict[str, float | bool]:
         """The top wall's vertical balance over a stretch of its wall series (recorded, not required).
@@ -773,9 +773,8 @@ class PlanarShearRun:
             return None
         sums = pd.concat([read_wall_series(f, PAIRSUM_COLUMNS) for f in files], ignore_index=True)
         mean_x = float(sums["fsum_x"].mean())
-        area = self.case["cell_x"] * self.case["cell_y"] * self.mat["d"] ** 2
         settled = read_settled(self.run_dir / "settled.dump")
-        external = self.wall_pressure * area + float(settled.loc[settled["type"] == 1, "mass"].sum()) * self.case["gravity"]
+        external = self.top_load() + float(settled.loc[settled["type"] == 1, "mass"].sum()) * self.case["gravity"]
         mean_z = float(sums["fsum_z"].mean()) + external
         return {"mean_x": mean_x, "mean_y": float(sums["fsum_y"].mean()), "mean_z": mean_z,
                 "over_top_shear_force": mean_x / abs(shear) if shear else float("nan"),

@@ -15,6 +15,8 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from pipeline.dem.precision import standard_error
+
 
 @dataclass(frozen=True)
 class DriftTest:
@@ -107,6 +109,6 @@ def balance_test(signal: np.ndarray, target: float, tol: float, n_blocks: int = 
         raise ValueError("the target force must be non-zero")
     blocks = np.array([b.mean() for b in np.array_split(signal, n_blocks)])
     mean = float(signal.mean())
-    err = float(blocks.std(ddof=1) / np.sqrt(n_blocks))
+    err = float(standard_error(blocks))
     allowed = tol * abs(target) + 2.0 * err
     return BalanceTest(mean, float(target), err, float(allowed), mean / target, bool(abs(mean - target) <= allowed))
