@@ -25,7 +25,7 @@ REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
 import continuum  # noqa: E402
-from pipeline.calibration.calibrate import model_parameters, normal_stress_ratio  # noqa: E402
+from pipeline.calibration.parameter_sets import model_parameters, normal_stress_ratio  # noqa: E402
 from pipeline.common.planar_cell import planar_cell  # noqa: E402
 
 DEPTHS_OVER_D = (5.0, 7.0, 9.0)

@@ -34,7 +34,7 @@ from pipeline.coarse_graining.kernels import Kernel  # noqa: E402
 from pipeline.common.config import ConfigError, load_config  # noqa: E402
 from pipeline.common.observables import decades_resolved, replica_mean  # noqa: E402
 from pipeline.dumps.store import read_run_json  # noqa: E402
-from pipeline.scoring.scores import WALL_MARGIN_OVER_D  # noqa: E402
+from pipeline.scoring.replicas import WALL_MARGIN_OVER_D  # noqa: E402
 
 FRACTIONS = (0.25, 0.5, 0.75, 1.0)
 

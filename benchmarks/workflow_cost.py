@@ -35,7 +35,7 @@ sys.path.insert(0, str(REPO))
 
 from pipeline.dem.intruder_run import is_arrested, rest_speed_of  # noqa: E402
 from pipeline.dem.planar_run import settled_timestep  # noqa: E402
-from pipeline.scoring import scores  # noqa: E402
+from pipeline.scoring import intruder_scores, scores  # noqa: E402
 
 #: The cases of the goal (issue 19): rheometer, shear_gravity's replicas, intruder.
 GOAL_CASES = ("rheometer", "shear_gravity", "intruder")
@@ -121,7 +121,7 @@ def pair_scatter(root: Path) -> pd.DataFrame:
         # The arrest rule of this code (the speed alone), whatever rule the run's own code applied.
         rod = r["intruder"]
         rod["arrested"] = is_arrested(rod["speed"], rod["speed_err"], rest)
-    squares = list(np.square(scores.intruder_noise_terms(scores.moving_rod_speeds(runs))))
+    squares = list(np.square(intruder_scores.intruder_noise_terms(intruder_scores.moving_rod_speeds(runs))))
     row = _scatter_row("intruder", "intruder_speed_log_err", squares)
     if squares:  # the RMS of the terms, and its error from that of their mean square
         rms = math.sqrt(row["dem_noise"])

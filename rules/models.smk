@@ -9,9 +9,11 @@ rule model:
     input:
         config=CONFIG_JSON,
         params=f"{ROOT}/calibration/params.json",
+        draws=f"{ROOT}/calibration/draws.json",
         fields=case_fields,
     output:
-        f"{ROOT}/models/{{case}}/{{model}}.nc",
+        solution=f"{ROOT}/models/{{case}}/{{model}}.nc",
+        draws=f"{ROOT}/model_draws/{{case}}/{{model}}.nc",
     wildcard_constraints:
         case="|".join(layout.scored_cases(config)) or "no_planar_case",
     log:
@@ -20,7 +22,8 @@ rule model:
         f"{ROOT}/benchmarks/models/{{case}}/{{model}}.tsv"
     shell:
         "python -m pipeline.models planar --config {input.config} --params {input.params} "
-        "--case {wildcards.case} --model {wildcards.model} --fields {input.fields} --out {output} > {log} 2>&1"
+        "--case {wildcards.case} --model {wildcards.model} --fields {input.fields} --out {output.solution} "
+        "--draws {input.draws} --draws-out {output.draws} > {log} 2>&1"
 
 
 rule intruder_model:
@@ -31,10 +34,12 @@ rule intruder_model:
     input:
         config=CONFIG_JSON,
         params=f"{ROOT}/calibration/params.json",
+        draws=f"{ROOT}/calibration/draws.json",
         runs=intruder_runs,
         fields=case_fields,
     output:
-        f"{ROOT}/models/{{case}}/{{model}}.nc",
+        solution=f"{ROOT}/models/{{case}}/{{model}}.nc",
+        draws=f"{ROOT}/model_draws/{{case}}/{{model}}.nc",
     wildcard_constraints:
         case="|".join(layout.intruder_cases(config)) or "no_intruder_case",
         model="|".join(layout.INTRUDER_MODELS),
@@ -44,4 +49,5 @@ rule intruder_model:
         f"{ROOT}/benchmarks/models/{{case}}/{{model}}.tsv"
     shell:
         "python -m pipeline.models intruder --config {input.config} --params {input.params} "
-        "--model {wildcards.model} --runs {input.runs} --fields {input.fields} --out {output} > {log} 2>&1"
+        "--model {wildcards.model} --runs {input.runs} --fields {input.fields} --out {output.solution} "
+        "--draws {input.draws} --draws-out {output.draws} > {log} 2>&1"

@@ -3,25 +3,33 @@
 
 rule scores:
     message:
-        "Scores of every model against the DEM, with the replica noise floor"
+        "Scores of every model against the DEM, with their uncertainty, and which models can be told apart"
     conda:
         ENV
     input:
+        config=CONFIG_JSON,
         fields=[f for case in layout.scored_cases(config) for f in layout.fields_paths(config, case)],
         models=layout.model_paths(config),
+        model_draws=layout.model_draw_paths(config),
         intruder_runs=layout.all_intruder_run_jsons(config),
         intruder_models=layout.intruder_model_paths(config),
+        intruder_model_draws=layout.intruder_model_draw_paths(config),
         params=f"{ROOT}/calibration/params.json",
     output:
-        report(f"{ROOT}/scores.csv", caption="../docs/report/scores.rst", category="Scoring"),
+        scores=report(f"{ROOT}/scores.csv", caption="../docs/report/scores.rst", category="Scoring"),
+        verdict=f"{ROOT}/validation/verdict.csv",
+        differences=f"{ROOT}/validation/model_differences.csv",
+        scene_needs=f"{ROOT}/validation/scene_needs.csv",
     log:
         f"{ROOT}/logs/scores.log",
     benchmark:
         f"{ROOT}/benchmarks/scores.tsv"
     shell:
-        "python -m pipeline.scoring scores --fields {input.fields} --models {input.models} "
+        "python -m pipeline.scoring scores --config {input.config} --fields {input.fields} --models {input.models} "
+        "--model-draws {input.model_draws} {input.intruder_model_draws} "
         "--intruder-runs {input.intruder_runs} --intruder-models {input.intruder_models} --params {input.params} "
-        "--out {output} > {log} 2>&1"
+        "--out {output.scores} --verdict-out {output.verdict} --differences-out {output.differences} "
+        "--scene-needs-out {output.scene_needs} > {log} 2>&1"
 
 
 rule cost_accuracy:

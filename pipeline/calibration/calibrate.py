@@ -4,69 +4,34 @@ Local laws come from the rheometer only: each rheometer run gives one homogeneou
 averages at least ``bulk_margin_over_d`` d from each wall) of I, mu, nu and p with standard
 errors; mu(I), nu(I) and the critical-state family are fitted to those states
 (:mod:`continuum.calibration`). The non-local parameters (NGF A, the Cosserat and the
-volume-averaged lengths l) are fitted, with the local laws fixed, on one calibration run named in
-the config (``calibration.nonlocal_case`` / ``nonlocal_run``), by least squares of log10 u_x in
-its creeping zone; ``params.json`` records where each value was fitted so the report can say which
-scores are not independent of the calibration.
+volume-averaged lengths l) are fitted, with the local laws fixed, on the replica mean of the
+calibration case the config names (``calibration.nonlocal_case`` / ``nonlocal_runs``), by least
+squares of log10 u_x in its creeping zone, with errors from its replicas
+(:mod:`pipeline.calibration.nonlocal_fit`); ``params.json`` records where each value was fitted so
+the report can say which scores are not independent of the calibration.
 
-Usage: ``python -m pipeline.calibration.calibrate --config CONFIG --rheometer F1.nc F2.nc ... --nonlocal FIELDS.nc --out params.json``
+Usage: ``python -m pipeline.calibration.calibrate --config CONFIG --rheometer F1.nc F2.nc ... --nonlocal R1.nc R2.nc ... --out params.json``
 """
 from __future__ import annotations
 
 import argparse
 import json
 import math
-from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import xarray as xr
 
-import continuum
 from continuum import calibration as fits
-from continuum.geometry import PlanarShear
-from continuum.parameters import (
-    CosseratParameters,
-    CriticalStateParameters,
-    LocalMuIParameters,
-    NGFParameters,
-    VolumeAveragedParameters,
-)
+from pipeline.calibration.nonlocal_fit import calibrate_nonlocal
+from pipeline.calibration.parameter_sets import CalibrationError, calibration_settings
 from pipeline.common.config import calibration_runs, load_config, validation_cases
 from pipeline.common.formats import open_fields
-from pipeline.common.observables import creep_speed, log_speed_error
-from pipeline.common.planar_cell import planar_cell
 from pipeline.common.provenance import provenance
-
-CALIBRATION_DEFAULTS: dict[str, Any] = {
-    "nonlocal_case": "shear_gravity",
-    "nonlocal_run": "r1",
-    "bulk_margin_over_d": 3.0,
-    # Creeping points below this fraction of the wall speed are left out of the log fit: the
-    # DEM resolves them only above its noise (checked against the point's own error too).
-    "min_speed_over_wall_speed": 1e-5,
-    "critical_state_n": 1.05,
-    "cosserat_beta": 1.0,
-    "cosserat_wall_spin_ratio": 0.5,
-}
-
 
 #: Slope d nu_cs / d ln p used when the DEM resolves none (rigid grains): the order of the
 #: relative grain compliance (mean overlap / d ~ 1e-3).
 KAPPA_FLOOR = 1e-3
-
-#: Points faster than this fraction of the wall speed are the shear band in the fit report.
-BAND_SPEED = 0.1
-
-
-class CalibrationError(ValueError):
-    """The fields cannot calibrate the models; the message names the file and the cause."""
-
-
-def calibration_settings(config: dict[str, Any]) -> dict[str, Any]:
-    """The config's ``calibration`` section over :data:`CALIBRATION_DEFAULTS`."""
-    return CALIBRATION_DEFAULTS | (config.get("calibration") or {})
 
 
 def bulk_state(path: Path, margin_over_d: float) -> dict[str, float]:
@@ -124,46 +89,12 @@ def _entry(value: float, error: float, fitted_on: str, note: str = "") -> dict[s
     return entry
 
 
-def planar_geometry(ds: xr.Dataset, normal_stress_ratio: float) -> tuple[PlanarShear, np.ndarray]:
-    """The model cell of one fields file (contact planes, :mod:`pipeline.common.planar_cell`)
-    and the fields' z measured from its bottom plane."""
-    geometry, z0 = planar_cell([ds], normal_stress_ratio)
-    return geometry, ds.z.values - z0
-
-
-def creep_profile(ds: xr.Dataset, settings: dict[str, Any], ratio: float
-                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Points of u_x(z) usable for a log fit: inside the walls, resolved above the DEM noise."""
-    geometry, z = planar_geometry(ds, ratio)
-    u, err, _ = creep_speed(ds)
-    floor = settings["min_speed_over_wall_speed"] * geometry.wall_speed
-    keep = (z > 0.0) & (z < geometry.depth) & (u > floor) & (u > 2.0 * err)
-    return z[keep], u[keep], err[keep]
-
-
-def fit_errors(u: np.ndarray, err: np.ndarray) -> np.ndarray:
-    """Errors (m s-1) the non-local fits weight log10 u by: the stated error, floored at
-    LOG_SPEED_ERROR_FLOOR decades (pipeline.common.observables), so the shear band's tiny relative
-    errors do not decide a length that the creep below it measures."""
-    return log_speed_error(u, err) * u * math.log(10.0)
-
-
-def region_residuals(model: str, geometry: PlanarShear, parameters: Any, z: np.ndarray, u: np.ndarray,
-                     n_grid: int = 400) -> dict[str, float]:
-    """RMS of log10(u_model / u_dem) (decades) in the shear band (u > BAND_SPEED V) and in the creep below."""
-    sol = continuum.solve(model, geometry, parameters, n_grid=n_grid)
-    model_u = np.interp(z, sol.z.values, sol.u_x.values)
-    r = np.log10(np.maximum(model_u, np.finfo(float).tiny)) - np.log10(u)
-    band = u > BAND_SPEED * geometry.wall_speed
-    rms = lambda m: float(np.sqrt(np.mean(r[m] ** 2))) if m.any() else float("nan")  # noqa: E731
-    return {"band_rms_decades": rms(band), "creep_rms_decades": rms(~band),
-            "band_points": int(band.sum()), "creep_points": int((~band).sum())}
-
-
-def calibrate(config: dict[str, Any], rheometer_files: list[Path], nonlocal_file: Path | None) -> dict[str, Any]:
-    """All parameters with errors and provenance (the content of ``params.json``)."""
+def calibrate(config: dict[str, Any], rheometer_files: list[Path], nonlocal_files: list[Path] | None = None) -> dict[str, Any]:
+    """All parameters with errors and provenance (the content of ``params.json``); the non-local
+    lengths from the replica mean of ``nonlocal_files`` (:mod:`pipeline.calibration.nonlocal_fit`)."""
     settings = calibration_settings(config)
-    read = [run_label(Path(f)) for f in [*rheometer_files, *([nonlocal_file] if nonlocal_file is not None else [])]]
+    nonlocal_files = [Path(f) for f in (nonlocal_files or [])]
+    read = [run_label(Path(f)) for f in [*rheometer_files, *nonlocal_files]]
     check_calibration_set(config, read)
     states = [bulk_state(Path(f), settings["bulk_margin_over_d"]) for f in rheometer_files]
     if len(states) < 3:
@@ -202,6 +133,9 @@ def calibrate(config: dict[str, Any], rheometer_files: list[Path], nonlocal_file
         "covariance": {
             "mu_i": {"names": list(mu_fit.names), "matrix": np.asarray(mu_fit.covariance).tolist()},
             "nu_i": {"names": list(nu_fit.names), "matrix": np.asarray(nu_fit.covariance).tolist()},
+            # sin_phi is mu_s of the mu(I) fit (its variance here; drawn with mu_s); p_ref is fixed.
+            "critical_state": {"names": list(cs_fit.names), "matrix": np.asarray(cs_fit.covariance).tolist(),
+                               "kappa_floored": bool(cs_notes)},
         },
         "normal_stresses": normal_stress_entries(states),
         "microscopic_fluidity": microscopic_fluidity_fit(states, float(states[0]["d"])),
@@ -210,8 +144,8 @@ def calibrate(config: dict[str, Any], rheometer_files: list[Path], nonlocal_file
         "calibration_runs": [f"{case}/{run}" for case, run in read],
         "nonlocal": {},
     }
-    if nonlocal_file is not None:
-        params["nonlocal"], params["nonlocal_fit_residuals"] = calibrate_nonlocal(params, Path(nonlocal_file), settings)
+    if nonlocal_files:
+        params["nonlocal"], params["nonlocal_fit_residuals"] = calibrate_nonlocal(params, nonlocal_files, settings)
     with open_fields(rheometer_files[0]) as first:
         d, rho_s = float(first.attrs["d"]), float(first.attrs["rho_s"])
     params["d"] = d
@@ -283,15 +217,6 @@ def microscopic_fluidity(params: dict[str, Any], nu: np.ndarray, temperature: np
     return np.where(calibrated, g, np.nan), np.where(calibrated, err, np.nan)
 
 
-def normal_stress_ratio(params: dict[str, Any]) -> float:
-    """sigma_zz / p of the calibration: the models' p is sigma_zz over it (continuum.geometry)."""
-    try:
-        return float(params["normal_stresses"]["sigma_zz_over_p"]["value"])
-    except KeyError:
-        raise CalibrationError("params.json has no normal_stresses.sigma_zz_over_p: written by an older "
-                               "calibration, rerun it") from None
-
-
 def run_label(path: Path) -> tuple[str, str]:
     """(case, run) of a fields file, from its attributes."""
     with open_fields(path) as ds:
@@ -312,141 +237,12 @@ def check_calibration_set(config: dict[str, Any], read: list[tuple[str, str]]) -
             "are never read by the calibration")
 
 
-def calibrate_nonlocal(params: dict[str, Any], path: Path, settings: dict[str, Any]
-                       ) -> tuple[dict[str, Any], dict[str, dict[str, float]]]:
-    """NGF A and the Cosserat and volume-averaged l, each fitted to the creep of one run, and
-    each fit's log10 residuals in the shear band and in the creep (:func:`region_residuals`)."""
-    ds = open_fields(path)
-    ratio = normal_stress_ratio(params)
-    geometry, _ = planar_geometry(ds, ratio)
-    z, u, err = creep_profile(ds, settings, ratio)
-    where = f"{ds.attrs.get('case', '?')}/{ds.attrs.get('run', path.stem)}"
-    if z.size < 4:
-        raise CalibrationError(f"{path}: only {z.size} resolved creep points to fit the non-local lengths")
-    base = {name: entry["value"] for name, entry in (params["local"] | params["critical_state"]).items()}
-    out: dict[str, Any] = {}
-    ngf0 = ngf_parameters(base, A=0.48)
-    weights = fit_errors(u, err)
-    fit = fits.fit_nonlocal_length("ngf", geometry, lambda a: replace(ngf0, A=a), z, u, weights,
-                                   initial=0.48, bounds=(0.01, 10.0), name="A", case=where)
-    at_bound = fit.values["A"] < 0.0101 or fit.values["A"] > 9.99
-    out["ngf"] = {"A": _entry(fit.values["A"], fit.errors["A"], where,
-                              "the fit sits at a bound of [0.01, 10]: the DEM creep is not NGF-shaped here" if at_bound else "")}
-    residuals = {"ngf": region_residuals("ngf", geometry, replace(ngf0, A=fit.values["A"]), z, u)}
-    d = geometry.d
-    for model, build in (("cosserat", cosserat_parameters), ("volume_averaged", volume_averaged_parameters)):
-        start = build(base, l=d, settings=settings)
-        make = lambda l, s=start: replace(s, l=l)  # noqa: E731
-        lo, hi = admissible_interval(model, geometry, make, 0.05 * d, 20.0 * d)
-        fit = fits.fit_nonlocal_length(model, geometry, make, z, u, weights, initial=math.sqrt(lo * hi),
-                                       bounds=(lo, hi), name="l", case=where)
-        note = ""
-        if lo > 0.05 * d or hi < 20.0 * d:
-            note = f"the model solves on this geometry only for l in [{lo / d:.3g}, {hi / d:.3g}] d; fitted there"
-        if fit.values["l"] > 0.99 * hi or fit.values["l"] < 1.01 * lo:
-            note += "; the fit sits at a bound of that interval"
-        out[model] = {"l": _entry(fit.values["l"], fit.errors["l"], where, note.strip("; "))}
-        residuals[model] = region_residuals(model, geometry, make(fit.values["l"]), z, u)
-    ds.close()
-    return out, residuals
-
-
-def admissible_interval(model: str, geometry: PlanarShear, make_params: Any, lo: float, hi: float,
-                        n_grid: int = 400, samples: int = 25) -> tuple[float, float]:
-    """The widest interval of lengths in [lo, hi] (log-spaced samples) where the model solves.
-
-    The Cosserat model has solutions only in a window of l for a given wall-spin condition: below
-    it the couple-stress wall conditions are not met on the grid, above it the shear stress it
-    needs exceeds what the top wall admits. Fitting must stay inside that window.
-    """
-    import continuum
-
-    lengths = np.geomspace(lo, hi, samples)
-    ok = []
-    for length in lengths:
-        try:
-            continuum.solve(model, geometry, make_params(float(length)), n_grid=n_grid)
-            ok.append(True)
-        except continuum.ContinuumError:
-            ok.append(False)
-    best: tuple[int, int] | None = None
-    start = None
-    for k, good in enumerate([*ok, False]):
-        if good and start is None:
-            start = k
-        if not good and start is not None:
-            if best is None or k - start > best[1] - best[0]:
-                best = (start, k)
-            start = None
-    if best is None:
-        raise CalibrationError(f"model {model} has no solution on the calibration geometry for any l in "
-                               f"[{lo:.3g}, {hi:.3g}] m")
-    return float(lengths[best[0]]), float(lengths[best[1] - 1])
-
-
-# ------------------------------------------------------------------- parameter dataclasses
-def _mu_i(v: dict[str, float]):
-    from continuum.parameters import MuIParameters
-
-    return MuIParameters(v["mu_s"], v["mu_2"], v["I_0"])
-
-
-def local_mu_i_parameters(v: dict[str, float]) -> LocalMuIParameters:
-    from continuum.parameters import SolidFractionLaw
-
-    return LocalMuIParameters(_mu_i(v), SolidFractionLaw(v["nu_c"], v["a"]))
-
-
-def ngf_parameters(v: dict[str, float], A: float) -> NGFParameters:
-    return NGFParameters(_mu_i(v), A=A, nu=v["nu_c"])
-
-
-def critical_state_parameters(v: dict[str, float], settings: dict[str, Any] | None = None) -> CriticalStateParameters:
-    from continuum.parameters import CriticalStateLine
-
-    n = v.get("n", (settings or CALIBRATION_DEFAULTS)["critical_state_n"])
-    return CriticalStateParameters(v["sin_phi"], CriticalStateLine(v["nu_ref"], v["kappa"], v["p_ref"]), n=n)
-
-
-def cosserat_parameters(v: dict[str, float], l: float, settings: dict[str, Any] | None = None) -> CosseratParameters:
-    s = settings or CALIBRATION_DEFAULTS
-    return CosseratParameters(critical_state_parameters(v, s), l=l, beta=s["cosserat_beta"],
-                              wall_spin_ratio=s["cosserat_wall_spin_ratio"])
-
-
-def volume_averaged_parameters(v: dict[str, float], l: float, settings: dict[str, Any] | None = None) -> VolumeAveragedParameters:
-    return VolumeAveragedParameters(critical_state_parameters(v, settings), l=l)
-
-
-def values(params: dict[str, Any]) -> dict[str, float]:
-    """Flat name -> value of the local and critical-state parameters of a params.json."""
-    return {name: entry["value"] for name, entry in (params["local"] | params["critical_state"]).items()}
-
-
-def model_parameters(params: dict[str, Any], model: str) -> Any:
-    """The continuum parameter dataclass of ``model`` from a params.json content."""
-    v = values(params)
-    nonlocal_ = params.get("nonlocal", {})
-    if model == "local_mu_i":
-        return local_mu_i_parameters(v)
-    if model == "critical_state":
-        return critical_state_parameters(v)
-    if model not in nonlocal_:
-        raise CalibrationError(f"params.json has no non-local calibration for model {model!r}")
-    if model == "ngf":
-        return ngf_parameters(v, A=nonlocal_["ngf"]["A"]["value"])
-    if model == "cosserat":
-        return cosserat_parameters(v, l=nonlocal_["cosserat"]["l"]["value"])
-    if model == "volume_averaged":
-        return volume_averaged_parameters(v, l=nonlocal_["volume_averaged"]["l"]["value"])
-    raise CalibrationError(f"unknown model {model!r}")
-
-
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description="Fit the continuum parameters from DEM fields.")
     parser.add_argument("--config", required=True)
     parser.add_argument("--rheometer", nargs="+", required=True, type=Path, help="rheometer fields files")
-    parser.add_argument("--nonlocal", dest="nonlocal_fields", type=Path, help="fields file of the non-local calibration run")
+    parser.add_argument("--nonlocal", dest="nonlocal_fields", nargs="*", default=[], type=Path,
+                        help="fields files of the non-local calibration runs (their replica mean is fitted)")
     parser.add_argument("--out", required=True, type=Path)
     args = parser.parse_args(argv)
     config = load_config(args.config)
@@ -460,5 +256,7 @@ def main(argv: list[str] | None = None) -> int:
         *(x for n in ("mu_s", "mu_2", "I_0", "nu_c", "a") for x in (local[n]["value"], local[n]["error"]))))
     for model, entry in params["nonlocal"].items():
         for name, e in entry.items():
-            print(f"{model}: {name} = {e['value']:.4g} +- {e['error']:.2g} (fitted on {e['fitted_on']})")
+            per = ", ".join(f"{run} {v:.4g}" for run, v in e["per_replica"].items())
+            print(f"{model}: {name} = {e['value']:.4g} +- {e['error']:.2g} (curvature {e['error_fit_curvature']:.2g}, "
+                  f"jackknife {e.get('error_jackknife', float('nan')):.2g}; fitted on {e['fitted_on']}; per replica {per})")
     return 0

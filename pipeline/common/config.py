@@ -117,10 +117,22 @@ def _check_log_speed_pair(targets: dict[str, Any], where: str) -> None:
 
 
 def _check_calibration_set(config: dict[str, Any], source: str) -> None:
-    case, run = calibration_runs(config)[-1]
-    if (case, run) not in dem_runs(config):
-        raise ConfigError(f"{source}: calibration.nonlocal_case/nonlocal_run = {case}/{run} is not a DEM run of "
-                          f"this config (runs of {case}: {', '.join(r for c, r in dem_runs(config) if c == case) or 'none'})")
+    calib = config.get("calibration") or {}
+    if "nonlocal_run" in calib and "nonlocal_runs" in calib:
+        raise ConfigError(f"{source}: calibration.nonlocal_run and calibration.nonlocal_runs both given: "
+                          "name the runs once (nonlocal_runs: all, or a list of run ids)")
+    case = calib.get("nonlocal_case", "shear_gravity")
+    runs = nonlocal_runs(config)
+    if not runs:
+        raise ConfigError(f"{source}: calibration.nonlocal_case = {case} is not a case of this config "
+                          f"(cases: {', '.join(config['cases'])})")
+    replicas = [r for c, r in dem_runs(config) if c == case and re.fullmatch(r"r\d+", r)]
+    for c, run in runs:
+        if (c, run) not in dem_runs(config) or run not in replicas:
+            raise ConfigError(f"{source}: calibration.nonlocal_case/nonlocal_runs: {c}/{run} is not a replica run of "
+                              f"this config (replicas of {case}: {', '.join(replicas) or 'none'})")
+    if len(set(runs)) != len(runs):
+        raise ConfigError(f"{source}: calibration.nonlocal_runs names a run twice: {', '.join(r for _, r in runs)}")
     if case == RHEOMETER or config["cases"][case]["geometry"] != "planar_shear":
         raise ConfigError(f"{source}: calibration.nonlocal_case = {case}: the non-local lengths are fitted on a "
                           "planar case with gravity (its creep), not on the rheometer or an intruder case")
@@ -394,12 +406,28 @@ def liggghts_seed(master_seed: int, *labels: str) -> int:
 RHEOMETER = "rheometer"
 
 
-def calibration_runs(config: dict[str, Any]) -> list[tuple[str, str]]:
-    """The calibration set: every rheometer run and the one planar run of
-    ``calibration.nonlocal_case/nonlocal_run``. Nothing else may reach the calibration."""
+def nonlocal_runs(config: dict[str, Any]) -> list[tuple[str, str]]:
+    """The planar runs the non-local lengths are fitted on: the replicas (``r<k>``) of
+    ``calibration.nonlocal_case``, all of them by default (``nonlocal_runs: all``), or the subset
+    ``nonlocal_runs`` lists (the older single ``nonlocal_run`` is a subset of one). The fit is to
+    their replica mean; the lengths' errors come from leaving one replica out at a time."""
     calib = config.get("calibration") or {}
-    nonlocal_run = (calib.get("nonlocal_case", "shear_gravity"), calib.get("nonlocal_run", "r1"))
-    return [(c, r) for c, r in dem_runs(config) if c == RHEOMETER] + [nonlocal_run]
+    case = calib.get("nonlocal_case", "shear_gravity")
+    if "nonlocal_run" in calib:
+        return [(case, str(calib["nonlocal_run"]))]
+    chosen = calib.get("nonlocal_runs", "all")
+    if chosen == "all":
+        spec = (config.get("cases") or {}).get(case)
+        if spec is None:
+            return []
+        return [(case, f"r{k + 1}") for k in range(int(spec.get("replicas", 1)))]
+    return [(case, str(run)) for run in chosen]
+
+
+def calibration_runs(config: dict[str, Any]) -> list[tuple[str, str]]:
+    """The calibration set: every rheometer run and the planar runs of :func:`nonlocal_runs`.
+    Nothing else may reach the calibration."""
+    return [(c, r) for c, r in dem_runs(config) if c == RHEOMETER] + nonlocal_runs(config)
 
 
 def validation_cases(config: dict[str, Any]) -> list[str]:
@@ -409,7 +437,7 @@ def validation_cases(config: dict[str, Any]) -> list[str]:
 
 
 #: Config sections that do not change what a DEM run computes.
-NON_DEM_SECTIONS = ("coarse_grain", "calibration", "models")
+NON_DEM_SECTIONS = ("coarse_grain", "calibration", "models", "scoring")
 
 
 def dem_config(config: dict[str, Any], case: str | None = None) -> dict[str, Any]:

@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from pipeline.common.config import dem_fills, dem_runs, size_study_cell
+from pipeline.common.config import dem_fills, dem_runs, size_study_cell, validation_cases
 
 
 #: Figures the report writes as PNG files (flagged with Snakemake's report()).
@@ -14,7 +14,7 @@ REPORT_FIGURES = ("decay_length", "profiles", "calibration", "pareto", "well_pos
 #: Category of each figure in Snakemake's report: the stage that made what it shows.
 REPORT_CATEGORIES = {"decay_length": "Validation", "profiles": "Scoring", "pareto": "Scoring", "calibration": "Calibration",
                      "well_posedness": "Stability", "mesh_convergence": "Stability", "wall_series": "DEM",
-                     "dem_convergence": "DEM", "intruder": "Intruder", "intruder_field": "Intruder"}
+                     "dem_convergence": "DEM", "intruder": "Intruder", "intruder_field": "Intruder", "verdict": "Validation"}
 
 
 def root(config: dict[str, Any]) -> Path:
@@ -35,7 +35,8 @@ def shared_fill_paths(config: dict[str, Any]) -> list[str]:
 def report_figures(config: dict[str, Any]) -> list[str]:
     """Names of the figures the report writes for this config."""
     return (list(REPORT_FIGURES) + (["intruder", "intruder_field"] if intruder_cases(config) else [])
-            + (["dem_convergence"] if convergence_cases(config) else []))
+            + (["dem_convergence"] if convergence_cases(config) else [])
+            + (["verdict"] if validation_cases(config) else []))
 
 
 def fields_paths(config: dict[str, Any], case: str | None = None, size_study: bool = False) -> list[str]:
@@ -73,6 +74,13 @@ def model_paths(config: dict[str, Any]) -> list[str]:
     return [str(root(config) / "models" / case / f"{model}.nc") for case in scored_cases(config) for model in model_names(config)]
 
 
+def model_draw_paths(config: dict[str, Any]) -> list[str]:
+    """``model_draws/{case}/{model}.nc`` (every parameter draw, and the refined grid) for every
+    scored planar case and model."""
+    return [str(root(config) / "model_draws" / case / f"{model}.nc") for case in scored_cases(config)
+            for model in model_names(config)]
+
+
 def intruder_cases(config: dict[str, Any]) -> list[str]:
     """Cases with an intruder (scored by the intruder's speed)."""
     return [case for case, spec in config["cases"].items() if spec["geometry"] == "intruder"]
@@ -85,6 +93,12 @@ INTRUDER_MODELS = ("ngf", "local_mu_i", "critical_state", "volume_averaged")
 def intruder_model_paths(config: dict[str, Any]) -> list[str]:
     """``models/{case}/{model}.nc`` of the intruder cases."""
     return [str(root(config) / "models" / case / f"{model}.nc") for case in intruder_cases(config)
+            for model in model_names(config) if model in INTRUDER_MODELS]
+
+
+def intruder_model_draw_paths(config: dict[str, Any]) -> list[str]:
+    """``model_draws/{case}/{model}.nc`` of the intruder cases."""
+    return [str(root(config) / "model_draws" / case / f"{model}.nc") for case in intruder_cases(config)
             for model in model_names(config) if model in INTRUDER_MODELS]
 
 

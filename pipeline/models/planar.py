@@ -6,8 +6,13 @@ mean over the case's DEM replicas (read from their fields files); the parameters
 interpolated (linearly) onto the z of the DEM fields, so the two can be compared point by point;
 ``z`` is the DEM's (absolute) height and ``z_model`` the height above the bottom wall.
 
+With ``--draws calibration/draws.json --draws-out model_draws/{case}/{model}.nc`` the model is also
+solved once per parameter draw of the calibration's uncertainty (:mod:`pipeline.calibration.draws`)
+and, with the calibration's own values, on a grid twice as fine (the ``*_refined`` variables: the
+grid's share of a score's uncertainty, ``u_num``); :func:`solve_draws`.
+
 Usage: ``python -m pipeline.models.planar --config CONFIG --params params.json --case shear_gravity
---model ngf --fields F1.nc [F2.nc ...] --out models/shear_gravity/ngf.nc``
+--model ngf --fields F1.nc [F2.nc ...] --out models/shear_gravity/ngf.nc [--draws D --draws-out F]``
 """
 from __future__ import annotations
 
@@ -23,7 +28,7 @@ import xarray as xr
 import continuum
 from continuum.geometry import PlanarShear
 from pipeline.common import atomic
-from pipeline.calibration.calibrate import model_parameters, normal_stress_ratio
+from pipeline.calibration.parameter_sets import model_parameters, normal_stress_ratio, params_of_draw
 from pipeline.common.config import load_config
 from pipeline.common.formats import FormatError, open_fields
 from pipeline.common.planar_cell import planar_cell
@@ -79,6 +84,47 @@ def solve_on_case(model: str, case: str, params: dict[str, Any], fields: list[xr
     return out
 
 
+def solve_draws(model: str, case: str, params: dict[str, Any], ensemble: dict[str, Any], fields: list[xr.Dataset],
+                n_grid: int) -> xr.Dataset:
+    """The model on the case for every parameter draw (dims ``draw``, ``z``: the fields' z) and, with
+    the calibration's values, on ``2 n_grid - 1`` nodes (``<name>_refined``: the nominal grid's nodes
+    halved). A draw the model cannot be solved for (``solved`` = 0) keeps NaN and its reason in the
+    ``failures`` attribute (JSON: draw -> reason)."""
+    refined = solve_on_case(model, case, params, fields, 2 * n_grid - 1)
+    names = [n for n, v in refined.data_vars.items() if v.dims == ("z",) and n != "z_model"]
+    draws = ensemble["draws"]
+    data = {n: np.full((len(draws), refined.sizes["z"]), np.nan) for n in names}
+    solved = np.zeros(len(draws), dtype=np.int8)
+    seconds = np.full(len(draws), np.nan)
+    failures: dict[int, str] = {}
+    for k, draw in enumerate(draws):
+        if model in draw.get("failed", {}):
+            failures[k] = draw["failed"][model]
+            continue
+        try:
+            sol = solve_on_case(model, case, params_of_draw(params, draw), fields, n_grid)
+        except ModelRunError as exc:
+            failures[k] = str(exc)[:300]
+            continue
+        for n in names:
+            if n in sol:
+                data[n][k] = sol[n].values
+        solved[k] = 1
+        seconds[k] = float(sol.attrs["solve_seconds"])
+    out = xr.Dataset(coords={"draw": ("draw", np.arange(len(draws)), {"units": "1", "long_name": "parameter draw"}),
+                             "z": refined.z})
+    for n in names:
+        out[n] = (("draw", "z"), data[n], dict(refined[n].attrs))
+        out[f"{n}_refined"] = ("z", refined[n].values, dict(refined[n].attrs) | {
+            "long_name": f"{refined[n].attrs.get('long_name', n)}, calibration's values on the refined grid"})
+    out["solved"] = ("draw", solved, {"units": "1", "long_name": "1 where the draw was solved"})
+    out["solve_seconds"] = ("draw", seconds, {"units": "s", "long_name": "solve time of the draw"})
+    out.attrs.update({"model": model, "case": case, "n_grid": n_grid, "n_grid_refined": 2 * n_grid - 1,
+                      "n_draws": len(draws), "n_solved": int(solved.sum()), "failures": json.dumps(failures),
+                      "draws_seed": int(ensemble.get("seed", -1))})
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description="Solve one continuum model on a DEM case's geometry.")
     parser.add_argument("--config", required=True)
@@ -87,7 +133,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--model", required=True, choices=continuum.MODEL_NAMES)
     parser.add_argument("--fields", nargs="+", required=True, type=Path)
     parser.add_argument("--out", required=True, type=Path)
+    parser.add_argument("--draws", type=Path, help="calibration/draws.json: also solve every parameter draw")
+    parser.add_argument("--draws-out", type=Path, help="where the draws' solutions go (model_draws/CASE/MODEL.nc)")
     args = parser.parse_args(argv)
+    if (args.draws is None) != (args.draws_out is None):
+        parser.error("--draws and --draws-out go together")
     config = load_config(args.config)
     params = json.loads(args.params.read_text())
     n_grid = int((MODELS_DEFAULTS | (config.get("models") or {}))["n_grid"])
@@ -98,6 +148,15 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: {exc}", file=sys.stderr)
         return 1
     solution.attrs.update(provenance_attrs(config))
+    if args.draws is not None:
+        try:
+            ensemble = solve_draws(args.model, args.case, params, json.loads(args.draws.read_text()), fields, n_grid)
+        except ModelRunError as exc:
+            print(f"error: {exc} (refined grid)", file=sys.stderr)
+            return 1
+        ensemble.attrs.update(provenance_attrs(config))
+        atomic.write_netcdf(ensemble, args.draws_out)
+        print(f"{args.model} on {args.case}: {ensemble.attrs['n_solved']} of {ensemble.attrs['n_draws']} draws solved")
     atomic.write_netcdf(solution, args.out)
     print(f"{args.model} on {args.case}: n_grid {n_grid}, {solution.attrs['solve_seconds'] * 1e3:.2f} ms, "
           f"tau {solution.attrs.get('tau', float('nan')):.4g} Pa")

@@ -28,7 +28,7 @@ import pandas as pd
 
 import continuum
 from continuum.geometry import PlanarShear
-from pipeline.calibration.calibrate import model_parameters, normal_stress_ratio
+from pipeline.calibration.parameter_sets import model_parameters, normal_stress_ratio
 from pipeline.common import atomic
 from pipeline.common.cli import positive_float
 from pipeline.common.config import RHEOMETER, load_config, mean_grain_volume

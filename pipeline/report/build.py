@@ -29,18 +29,12 @@ from pipeline.common.provenance import software_versions
 from pipeline.common.layout import (convergence_cases, convergence_paths, fields_paths, intruder_cases, model_names, scored_cases,
                                     shared_fill_paths)
 from pipeline.dem.wall_series import read_wall_series
-from pipeline.scoring.scores import align_replicas
+from pipeline.report.scores_section import score_section
+from pipeline.report.style import MODEL_STYLE
+from pipeline.scoring.replicas import align_replicas
 
-MODEL_STYLE = {
-    "local_mu_i": ("tab:blue", "-"),
-    "critical_state": ("tab:orange", "--"),
-    "cosserat": ("tab:green", "-."),
-    "ngf": ("tab:red", "-"),
-    "volume_averaged": ("tab:purple", ":"),
-}
 #: Figures embedded as PNG (colour maps); every other one is line art, embedded as SVG.
 RASTER_FIGURES = ("intruder_field", "well_posedness")
-HEADLINE_METRICS = ("log_velocity_rmse", "velocity_rmse_rel", "decay_length_rel_err", "shear_band_width_rel_err", "nu_rmse", "mu_rmse")
 
 
 def load_runs(config: dict[str, Any]) -> list[dict[str, Any]]:
@@ -70,79 +64,6 @@ class Figures:
         if self.folder is not None:
             fig.savefig(self.folder / f"{name}.png", dpi=110, bbox_inches="tight")
         return figure_html(fig, caption, vector=name not in RASTER_FIGURES)
-
-
-# ------------------------------------------------------------------------------------ scores
-def _case_table(frame: pd.DataFrame) -> str:
-    """Model x metric values of one case, coloured against the DEM noise, with the noise row."""
-    wide = frame.pivot(index="model", columns="metric", values="value")
-    noise = frame.groupby("metric")["dem_noise"].first()
-    cols = [m for m in HEADLINE_METRICS if m in wide.columns] + sorted(set(wide.columns) - set(HEADLINE_METRICS))
-    table = wide[cols].reset_index()
-    styles = []
-    for _, row in table.iterrows():
-        row_style = [""]
-        for m in cols:
-            v, n = row[m], noise.get(m, float("nan"))
-            if np.isnan(v):
-                row_style.append("")  # the model does not predict this quantity: nothing to colour
-            elif np.isinf(v) or (np.isfinite(n) and n > 0 and v > 10 * n):
-                row_style.append("background:#f6c6c6")
-            elif np.isfinite(n) and v <= 2 * n:
-                row_style.append("background:#c8eec8")
-            else:
-                row_style.append("")
-        styles.append(row_style)
-    noise_row = pd.DataFrame([["DEM noise (replica vs replica)"] + [noise.get(m, float("nan")) for m in cols]],
-                             columns=["model"] + cols)
-    shown = pd.concat([table, noise_row], ignore_index=True).astype(object)
-    # An empty cell reads as a bug: say why there is no number (no replica pair, or no prediction).
-    shown.iloc[:-1, 1:] = shown.iloc[:-1, 1:].where(pd.notna(shown.iloc[:-1, 1:]), "not predicted")
-    shown.iloc[-1:, 1:] = shown.iloc[-1:, 1:].where(pd.notna(shown.iloc[-1:, 1:]), "n/a: one replica")
-    return table_html(shown, cell_style=styles + [[""] * (len(cols) + 1)], css_class="scores")
-
-
-def ranking_table(scores: pd.DataFrame) -> pd.DataFrame:
-    """Per held-out case and metric: the best model, its value over the DEM noise, the runner-up."""
-    rows = []
-    for (case, metric), frame in scores.groupby(["case", "metric"]):
-        finite = frame[np.isfinite(frame.value)].sort_values("value")
-        if finite.empty:
-            continue
-        best = finite.iloc[0]
-        noise = float(frame.dem_noise.iloc[0])
-        rows.append({"case": case, "metric": metric, "best model": best.model, "value": float(best.value),
-                     "DEM noise": noise, "value / noise": float(best.value / noise) if noise > 0 else float("nan"),
-                     "runner-up": finite.iloc[1].model if len(finite) > 1 else "none",
-                     "runner-up value": float(finite.iloc[1].value) if len(finite) > 1 else "none",
-                     "no prediction": ", ".join(sorted(set(frame.model) - set(finite.model))) or "none"})
-    table = pd.DataFrame(rows).astype(object)
-    return table.where(pd.notna(table), "n/a: one replica")
-
-
-def score_section(root: Path, figures: Figures, nonlocal_where: str) -> str:
-    scores = pd.read_csv(root / "scores.csv")
-    held, fitted = scores[scores.role == "held_out"], scores[scores.role == "calibration"]
-    parts = ["<h2>Predictions on held-out cases</h2>",
-             "<p class='note'>Every parameter frozen from the calibration runs (the rheometer, and "
-             f"<b>{html.escape(nonlocal_where)}</b> for the non-local lengths); these cases fed no fit. Each value is "
-             "the metric between the model and the mean of the DEM replicas; <b>dem_noise</b> is the same metric "
-             "between two replicas: a model within the noise cannot be told apart from the DEM. Green: within 2x "
-             "the noise; red: more than 10x the noise or no creep predicted (inf).</p>"]
-    if held.empty:
-        parts.append("<p><b>No held-out case in this config</b>: every score below is calibration quality.</p>")
-    else:
-        parts.append("<h3>Best model per case and metric</h3>" + table_html(ranking_table(held), css_class="scores"))
-        for case, frame in held.groupby("case"):
-            parts.append(f"<h3>{html.escape(case)} (held out)</h3>" + _case_table(frame))
-    parts.append("<h2>Fit quality on the calibration cases</h2><p class='note'>These cases' runs fed the "
-                 "calibration: the non-local models' scores here measure how well they can be fitted, not how "
-                 "well they predict.</p>")
-    for case, frame in fitted.groupby("case"):
-        parts.append(f"<h3>{html.escape(case)} (calibration)</h3>" + _case_table(frame))
-    cost = scores.groupby(["case", "model"])[["solve_seconds", "n_grid"]].first().reset_index()
-    parts.append("<details><summary>model solve cost per case</summary>" + table_html(cost) + "</details>")
-    return "\n".join(parts)
 
 
 def pareto_section(root: Path, figures: Figures) -> str:
@@ -588,7 +509,7 @@ def build_report(config: dict[str, Any], figure_dir: Path | None = None) -> str:
         "<p>How well each continuum rheology reproduces LIGGGHTS DEM of dense granular shear: local mu(I) with "
         "nu(I), local critical-state plasticity, Cosserat plasticity, non-local granular fluidity (NGF) and the "
         "volume-averaged non-local model (Dsouza &amp; Nott), all calibrated on the DEM rheometer.</p>",
-        score_section(root, figures, ", ".join(where) or "(not fitted)"),
+        score_section(root, figures, ", ".join(where) or "(not fitted)", config),
         decay_length_section(root, figures) if (root / "validation" / "decay_length.csv").exists() else "",
         profiles_section(root, config, figures),
         intruder_section(root, config, figures) if intruder_cases(config) else "",

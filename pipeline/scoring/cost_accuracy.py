@@ -24,9 +24,9 @@ import pandas as pd
 import continuum
 from pipeline.common import atomic
 from pipeline.scoring import metrics
-from pipeline.calibration.calibrate import model_parameters
+from pipeline.calibration.parameter_sets import model_parameters
 from pipeline.scoring.metrics import MetricError, Profile
-from pipeline.scoring.scores import interior, mean_profile, replica_profiles
+from pipeline.scoring.replicas import interior, mean_profile, replica_profiles
 from pipeline.models.planar import case_geometry
 
 N_GRIDS = (16, 32, 64, 128, 256, 512, 1024)

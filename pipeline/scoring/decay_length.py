@@ -41,7 +41,8 @@ from pipeline.common import atomic
 from pipeline.common.observables import creep_speed
 from pipeline.common.config import load_config
 from pipeline.common.provenance import provenance
-from pipeline.scoring.scores import WALL_MARGIN_OVER_D, calibration_cases
+from pipeline.scoring.replicas import WALL_MARGIN_OVER_D
+from pipeline.scoring.scores import calibration_cases
 
 #: Creep: speeds below this fraction of the wall speed (the shear band above is not creep).
 CREEP_FRACTION = 0.1

@@ -28,7 +28,7 @@ from scipy import stats
 from pipeline.coarse_graining.coarse_grain import integrated_autocorrelation_time
 from pipeline.common import atomic
 from pipeline.common.observables import creep_speed, decades_resolved, replica_mean
-from pipeline.scoring.scores import align_replicas, interior
+from pipeline.scoring.replicas import align_replicas, interior
 
 FIELDS = ("u_x", "u_x_disp", "nu", "sigma_zz", "sigma_xz", "mu")
 

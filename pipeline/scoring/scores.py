@@ -1,14 +1,16 @@
-"""Score every model against the DEM fields: ``scores.csv``.
+"""Score every model against the DEM fields: ``scores.csv``, and the verdict built on it.
 
-Reference: the mean of the case's DEM replicas (each interpolated onto the first replica's z),
-with the standard error of that mean. ``dem_noise``: the same metric between two independent
-replicas (mean over the pairs), the floor below which no model can be said to do better.
-Profiles are compared inside the layer, at least ``wall_margin_over_d`` d from both walls (the
-wall grains themselves are not the material the models describe).
+Reference: the mean of the case's DEM replicas (:mod:`pipeline.scoring.replicas`), with the
+standard error of that mean. ``dem_noise``: the same metric between two independent replicas (mean
+over the pairs; ``dem_noise_err`` its standard error over the pairs, ``dem_noise_pairs`` their
+number), the spread a single replica would show. Each score also carries its uncertainty
+(:mod:`pipeline.scoring.uncertainty`): ``u_dem`` (the DEM mean's), ``u_input`` (the calibration's,
+over the parameter draws), ``u_num`` (the grid's) and ``u_val``, their root sum of squares. With
+``--verdict-out`` the same run writes which models can be told apart (:mod:`pipeline.scoring.verdict`).
 
-Usage: ``python -m pipeline.scoring.scores --fields RESULTS/fields/CASE/RUN.nc ... --models
-RESULTS/models/CASE/MODEL.nc ... --out RESULTS/scores.csv`` (files are grouped by their folder,
-the case name).
+Usage: ``python -m pipeline.scoring.scores --config C --fields RESULTS/fields/CASE/RUN.nc ... --models
+RESULTS/models/CASE/MODEL.nc ... --model-draws RESULTS/model_draws/CASE/MODEL.nc ... --params P
+--out RESULTS/scores.csv`` (files are grouped by their folder, the case name).
 """
 from __future__ import annotations
 
@@ -16,63 +18,29 @@ import argparse
 import itertools
 import json
 import math
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
+from typing import Any, Callable
 
 import numpy as np
 import pandas as pd
 import xarray as xr
 
-from pipeline.calibration.calibrate import microscopic_fluidity
 from pipeline.common import atomic
-from pipeline.common.observables import creep_speed
-from pipeline.scoring import metrics
+from pipeline.common.config import derived_seed, load_config
+from pipeline.scoring import metrics, verdict
+from pipeline.scoring.intruder_scores import score_intruder
 from pipeline.scoring.metrics import MetricError, Profile
+from pipeline.scoring.replicas import (WALL_MARGIN_OVER_D, align_replicas, interior, mean_profile,  # noqa: F401 (re-exported)
+                                       replica_profiles, with_microscopic_fluidity)
+from pipeline.scoring.uncertainty import LOG_RESAMPLED, DemNoise, ScoreSamples, dem_noise_model, resample_profile
 
-COLUMNS = ["case", "model", "metric", "value", "dem_noise", "n_grid", "solve_seconds", "role"]
+COLUMNS = ["case", "model", "metric", "value", "dem_noise", "n_grid", "solve_seconds", "role",
+           "u_dem", "u_input", "u_num", "u_val", "dem_dof", "draws_solved", "draws_finite", "dem_noise_err",
+           "dem_noise_pairs", "points"]
 
 #: ``role`` of a case: a fit where any of its runs fed the calibration, else a prediction.
 ROLES = ("calibration", "held_out")
-WALL_MARGIN_OVER_D = 1.0
-
-
-def replica_profiles(files: list[Path]) -> list[xr.Dataset]:
-    """The replicas' fields, each interpolated onto the first replica's z."""
-    if not files:
-        raise FileNotFoundError("no DEM fields files to score against")
-    return align_replicas([xr.open_dataset(f) for f in files])
-
-
-def align_replicas(sets: list[xr.Dataset]) -> list[xr.Dataset]:
-    """Replica profiles, each interpolated onto the first one's z (their walls differ slightly),
-    with the creep speed ``u_creep`` (:func:`pipeline.common.observables.creep_speed`) added."""
-    aligned = [sets[0]] + [ds.interp(z=sets[0].z) for ds in sets[1:]]
-    out = []
-    for ds in aligned:
-        u, err, _ = creep_speed(ds)
-        out.append(ds.assign(u_creep=("z", u, {"units": "m s-1", "long_name": "creep speed (u_x or u_x_disp)"}),
-                             u_creep_err=("z", err, {"units": "m s-1", "long_name": "its standard error"})))
-    return out
-
-
-def interior(ds: xr.Dataset) -> np.ndarray:
-    """Mask of the points at least the wall margin from both walls' grain centres.
-
-    The wall layer (within ``WALL_MARGIN_OVER_D`` d of a wall's grain centres) is excluded from
-    every profile score: there the grains touch a rigid rough wall, a boundary layer none of the
-    bulk laws describes (its stress ratio is far above the rheometer bulk's at the same I).
-    """
-    d = float(ds.attrs["d"])
-    z0, z1 = float(ds.attrs["z_bottom_wall"]), float(ds.attrs["z_top_wall"])
-    z = ds.z.values
-    return (z >= z0 + WALL_MARGIN_OVER_D * d) & (z <= z1 - WALL_MARGIN_OVER_D * d)
-
-
-def mean_profile(reps: list[xr.Dataset], name: str) -> tuple[np.ndarray, np.ndarray]:
-    """Replica mean of a variable and its standard error (from the replicas' own errors)."""
-    values = np.array([ds[name].values for ds in reps])
-    errors = np.array([ds[f"{name}_err"].values for ds in reps])
-    return values.mean(axis=0), np.sqrt((errors**2).sum(axis=0)) / len(reps)
 
 
 Metric = Callable[[np.ndarray, dict[str, np.ndarray], Profile, float], float]
@@ -130,6 +98,13 @@ def dem_noise(reps: list[xr.Dataset], variable: str, fn: Callable[..., float], m
     return float(np.mean(finite)) if finite else float("nan")
 
 
+def noise_error(values: list[float]) -> float:
+    """Standard error of the mean of the pair values (NaN with fewer than two pairs). The pairs
+    of n replicas share replicas, so this understates the error when n is small; it says how
+    well the noise floor is known, not more."""
+    return float(np.std(values, ddof=1) / math.sqrt(len(values))) if len(values) >= 2 else float("nan")
+
+
 def pair_values(reps: list[xr.Dataset], variable: str, fn: Callable[..., float], mask: np.ndarray) -> list[float]:
     """The metric between each pair of replicas (replica a as the model, b as the DEM), finite ones only."""
     values = []
@@ -145,97 +120,101 @@ def pair_values(reps: list[xr.Dataset], variable: str, fn: Callable[..., float],
     return [v for v in values if math.isfinite(v)]
 
 
-def with_microscopic_fluidity(reps: list[xr.Dataset], params: dict | None) -> list[xr.Dataset]:
-    """Replicas with ``fluidity_micro`` (Zhang & Kamrin 2017, F(nu) from the calibration) added."""
-    if params is None or "microscopic_fluidity" not in params:
-        return reps
-    out = []
-    for ds in reps:
-        g, err = microscopic_fluidity(params, ds["nu"].values, ds["granular_temperature"].values,
-                                      ds["granular_temperature_err"].values)
-        out.append(ds.assign(fluidity_micro=("z", g, {"units": "s-1", "long_name": "microscopic fluidity"}),
-                             fluidity_micro_err=("z", err, {"units": "s-1", "long_name": "its standard error"})))
-    return out
+@dataclass(frozen=True)
+class ScoringSettings:
+    """How the uncertainty is estimated: DEM resamples per case, the master seed, the confidence."""
+
+    dem_resamples: int = 200
+    seed: int = 0
+    confidence: float = 0.95
+
+    @classmethod
+    def from_config(cls, config: dict[str, Any]) -> ScoringSettings:
+        section = config.get("scoring") or {}
+        return cls(int(section.get("dem_resamples", cls.dem_resamples)), int(config.get("seed", 0)),
+                   float(section.get("confidence", cls.confidence)))
 
 
-def score_case(case: str, field_files: list[Path], model_files: dict[str, Path], params: dict | None = None) -> pd.DataFrame:
-    """All metric rows of one case (``params``: the calibration, for the microscopic fluidity)."""
+def _evaluate(fn: Callable[..., float], model: np.ndarray, dem: np.ndarray, err: np.ndarray) -> float:
+    try:
+        return float(fn(model, dem, err))
+    except MetricError:
+        return math.nan
+
+
+def score_case(case: str, field_files: list[Path], model_files: dict[str, Path], params: dict | None = None,
+               draw_files: dict[str, Path] | None = None, settings: ScoringSettings = ScoringSettings()
+               ) -> tuple[pd.DataFrame, dict[tuple[str, str, str], ScoreSamples]]:
+    """All metric rows of one case and their resamples (module docstring). ``params``: the
+    calibration (for the microscopic fluidity); ``draw_files``: model -> ``model_draws`` file
+    (without them the rows have no ``u_input`` nor ``u_num``)."""
     reps = with_microscopic_fluidity(replica_profiles(field_files), params)
     mask = interior(reps[0])
     z = reps[0].z.values[mask]
     wall_speed = float(reps[0].attrs["wall_speed"])
-    rows = []
+    rows, samples = [], {}
     table = metric_table(z, wall_speed)
+    resampled: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray, DemNoise]] = {}
+
+    def dem_of(variable: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, DemNoise]:
+        # One set of resamples per DEM variable, shared by every model (paired comparisons), from a
+        # seed of its own so that adding a model or a metric leaves the others' numbers unchanged.
+        if variable not in resampled:
+            dem, err = mean_profile(reps, variable)
+            noise = dem_noise_model(reps, variable)
+            rng = np.random.default_rng(derived_seed(settings.seed, "scoring", case, variable))
+            draws = resample_profile(dem[mask], err[mask], noise, settings.dem_resamples, rng,
+                                     log=variable in LOG_RESAMPLED)
+            resampled[variable] = (dem[mask], err[mask], draws, noise)
+        return resampled[variable]
+
     for model, path in sorted(model_files.items()):
         sol = xr.open_dataset(path)
+        ens = xr.open_dataset(draw_files[model]) if draw_files and model in draw_files else None
         if not np.allclose(sol.z.values, reps[0].z.values):
             raise ValueError(f"{path}: model z does not match the DEM fields of {case} (solve it on those fields)")
         for metric, (variable, fn) in table.items():
             observed = DEM_VARIABLE.get(metric, variable)
             if variable not in sol or observed not in reps[0]:
                 continue  # the model does not predict this quantity (or the DEM does not measure it): no row
-            dem, err = mean_profile(reps, observed)
-            try:
-                value = fn(sol[variable].values[mask], dem[mask], err[mask])
-            except MetricError:
+            dem, err, dem_draws, noise = dem_of(observed)
+            predicted = sol[variable].values[mask]
+            value = _evaluate(fn, predicted, dem, err)
+            if math.isnan(value):
                 continue
+            dem_samples = np.array([_evaluate(fn, predicted, d, err) for d in dem_draws])
+            if ens is not None and variable in ens:
+                solved = ens["solved"].values.astype(bool)
+                draws = np.array([_evaluate(fn, ens[variable].values[k][mask], dem, err) if solved[k] else math.nan
+                                  for k in range(ens.sizes["draw"])])
+                refined = _evaluate(fn, ens[f"{variable}_refined"].values[mask], dem, err)
+                n_solved = int(solved.sum())
+            else:
+                draws, refined, n_solved = np.array([]), math.nan, 0
+            one = ScoreSamples(value, dem_samples, draws, refined, noise.dof, points=[f"{int(mask.sum())} z points"])
+            pairs = pair_values(reps, observed, fn, mask)
+            samples[(case, model, metric)] = one
             rows.append({
                 "case": case, "model": model, "metric": metric, "value": value,
-                "dem_noise": dem_noise(reps, observed, fn, mask),
+                "dem_noise": float(np.mean(pairs)) if pairs else math.nan,
                 "n_grid": int(sol.attrs["n_grid"]), "solve_seconds": float(sol.attrs["solve_seconds"]),
+                **uncertainty_columns(one), "draws_solved": n_solved,
+                "dem_noise_err": noise_error(pairs), "dem_noise_pairs": len(pairs), "points": one.points[0],
             })
         sol.close()
-    return pd.DataFrame(rows, columns=COLUMNS)
+        if ens is not None:
+            ens.close()
+    return pd.DataFrame(rows, columns=COLUMNS), samples
 
 
-def moving_rod_speeds(runs: list[dict]) -> dict[float, list[float]]:
-    """Speeds (m/s) of the sheared rods that move (not arrested), by target depth (in d)."""
-    by_depth: dict[float, list[float]] = {}
-    for r in runs:
-        if not r["intruder"]["control"] and not r["intruder"]["arrested"]:
-            by_depth.setdefault(round(r["intruder"]["depth_target_over_d"], 6), []).append(r["intruder"]["speed"])
-    return by_depth
-
-
-def intruder_noise_terms(by_depth: dict[float, list[float]]) -> list[float]:
-    """``|log10(U_a / U_b)|`` for each pair of replicas' rods at one depth (moving forward)."""
-    return [abs(math.log10(a / b)) for v in by_depth.values() for a, b in itertools.combinations(v, 2) if a > 0 and b > 0]
-
-
-def score_intruder(runs: list[dict], model_files: dict[str, Path]) -> pd.DataFrame:
-    """``intruder_speed_log_err``: RMS of log10(U_model / U_dem) over the depths where the DEM rod
-    moves (not arrested) and the model gives a speed; inf where the model predicts no motion.
-
-    DEM speeds at one depth are averaged over replicas; ``dem_noise`` is the same metric between
-    two replicas at the same depth (nan with one replica).
-    """
-    sheared = [r for r in runs if not r["intruder"]["control"]]
-    by_depth = moving_rod_speeds(runs)
-    if not by_depth:
-        raise MetricError("no intruder run moves: nothing to score")
-    actual = {}
-    for r in sheared:
-        actual.setdefault(round(r["intruder"]["depth_target_over_d"], 6), []).append(r["intruder"]["depth_over_d"])
-    noise_terms = intruder_noise_terms(by_depth)
-    noise = float(np.sqrt(np.mean(np.square(noise_terms)))) if noise_terms else float("nan")
-    rows = []
-    for model, path in sorted(model_files.items()):
-        sol = xr.open_dataset(path)
-        errors = []
-        for target, speeds in by_depth.items():
-            depth = float(np.mean(actual[target]))
-            match = np.nonzero(np.isclose(sol.depth_over_d.values, depth, atol=0.5))[0]
-            if match.size == 0:
-                continue  # the model refused this depth (listed in its file)
-            u = float(sol.speed.values[match[0]])
-            errors.append(math.inf if u <= 0.0 else math.log10(u / float(np.mean(speeds))))
-        if errors:
-            value = math.inf if any(math.isinf(e) for e in errors) else float(np.sqrt(np.mean(np.square(errors))))
-            rows.append({"case": "intruder", "model": model, "metric": "intruder_speed_log_err", "value": value,
-                         "dem_noise": noise, "n_grid": int(sol.attrs["n_grid"]),
-                         "solve_seconds": float(sol.attrs["solve_seconds"])})
-        sol.close()
-    return pd.DataFrame(rows, columns=COLUMNS)
+def uncertainty_columns(one: ScoreSamples) -> dict[str, float]:
+    """The ``u_*`` columns of a score row (NaN where the score is infinite: a model that predicts
+    no creep where the DEM creeps has no spread to speak of)."""
+    if not math.isfinite(one.value):
+        return {"u_dem": math.nan, "u_input": math.nan, "u_num": math.nan, "u_val": math.nan,
+                "dem_dof": one.dem_dof, "draws_finite": one.draws_finite_fraction}
+    return {"u_dem": one.u_dem, "u_input": one.u_input, "u_num": one.u_num, "u_val": one.u_val,
+            "dem_dof": one.dem_dof, "draws_finite": one.draws_finite_fraction}
 
 
 def calibration_cases(params: dict) -> set[str]:
@@ -247,26 +226,51 @@ def calibration_cases(params: dict) -> set[str]:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description="Score the continuum models against the DEM fields.")
+    parser.add_argument("--config", type=Path, help="the effective config (seed, scoring section); defaults without it")
     parser.add_argument("--fields", nargs="+", required=True, type=Path, help="fields/CASE/RUN.nc files")
     parser.add_argument("--models", nargs="+", required=True, type=Path, help="models/CASE/MODEL.nc files")
+    parser.add_argument("--model-draws", nargs="*", default=[], type=Path,
+                        help="model_draws/CASE/MODEL.nc files (the parameter draws and the refined grid)")
     parser.add_argument("--intruder-runs", nargs="*", default=[], type=Path, help="run.json of the intruder runs")
     parser.add_argument("--intruder-models", nargs="*", default=[], type=Path, help="models/intruder/MODEL.nc files")
     parser.add_argument("--params", required=True, type=Path,
                         help="calibration/params.json: its calibration_runs decide each case's role")
     parser.add_argument("--out", required=True, type=Path)
+    parser.add_argument("--verdict-out", type=Path, help="validation/verdict.csv (with the next two)")
+    parser.add_argument("--differences-out", type=Path, help="validation/model_differences.csv: every pair of models")
+    parser.add_argument("--scene-needs-out", type=Path, help="validation/scene_needs.csv")
     args = parser.parse_args(argv)
-    frames = []
+    config = load_config(args.config) if args.config else {}
+    settings = ScoringSettings.from_config(config)
+    frames, samples = [], {}
+    draws_of = {(p.parent.name, p.stem): p for p in args.model_draws}
     if args.intruder_models:
         runs = [json.loads(p.read_text()) for p in args.intruder_runs]
-        frames.append(score_intruder(runs, {p.stem: p for p in args.intruder_models}))
+        files = {p.stem: p for p in args.intruder_models}
+        ens = {m: draws_of[(p.parent.name, m)] for m, p in files.items() if (p.parent.name, m) in draws_of}
+        rows, extra = score_intruder(runs, files, ens, settings)
+        frames.append(pd.DataFrame(rows, columns=COLUMNS))
+        samples |= extra
     params = json.loads(args.params.read_text())
     for case in sorted({p.parent.name for p in args.models}):
         field_files = sorted(p for p in args.fields if p.parent.name == case)
         model_files = {p.stem: p for p in args.models if p.parent.name == case}
-        frames.append(score_case(case, field_files, model_files, params))
+        ens = {m: draws_of[(case, m)] for m in model_files if (case, m) in draws_of}
+        frame, extra = score_case(case, field_files, model_files, params, ens, settings)
+        frames.append(frame)
+        samples |= extra
     scores = pd.concat(frames, ignore_index=True)
     calibrated = calibration_cases(params)
     scores["role"] = np.where(scores["case"].isin(calibrated), ROLES[0], ROLES[1])
+    if args.verdict_out is not None:
+        outcome = verdict.judge(scores, samples, settings.confidence, solve_costs=verdict.solve_costs(scores))
+        atomic.write_csv(outcome.verdicts, args.verdict_out)
+        if args.differences_out is not None:
+            atomic.write_csv(outcome.differences, args.differences_out)
+        if args.scene_needs_out is not None:
+            atomic.write_csv(outcome.scene_needs, args.scene_needs_out)
+        print(outcome.verdicts.to_string(index=False))
+        print(outcome.scene_needs.to_string(index=False))
     atomic.write_csv(scores, args.out)
     print(scores.to_string(index=False))
     return 0

@@ -39,7 +39,7 @@ import continuum
 from continuum.geometry import PlanarShear
 from continuum.mesh_study import band_width, weak_plane_packing
 from continuum.parameters import CriticalStateLine
-from pipeline.calibration.calibrate import CalibrationError, model_parameters
+from pipeline.calibration.parameter_sets import CalibrationError, model_parameters
 from pipeline.common.config import ConfigError, mean_grain_volume, validate_config
 from pipeline.dem.planar_run import PlanarShearRun
 from pipeline.dem.liggghts_log import DEMRunError

@@ -35,7 +35,7 @@ import continuum
 from continuum.geometry import PlanarShear
 from continuum.mesh_study import N_GRIDS, mesh_study, weak_plane_packing
 from pipeline.common.cli import positive_int
-from pipeline.calibration.calibrate import CalibrationError, model_parameters
+from pipeline.calibration.parameter_sets import CalibrationError, model_parameters
 from pipeline.models.planar import case_geometry
 
 

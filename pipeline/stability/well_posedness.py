@@ -18,7 +18,7 @@ import pandas as pd
 
 from continuum import stability
 from pipeline.common import atomic
-from pipeline.calibration.calibrate import values
+from pipeline.calibration.parameter_sets import values
 
 #: Inertial numbers of the classification grid (log-spaced across the dense-flow range).
 I_GRID = np.logspace(-4, 0.5, 28)

@@ -10,7 +10,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from pipeline.common.config import (RHEOMETER, ConfigError, calibration_runs, dem_runs, fill_owner_run, predecessor_state, run_config,
+from pipeline.common.config import (RHEOMETER, ConfigError, calibration_runs, dem_runs, nonlocal_runs, fill_owner_run, predecessor_state, run_config,
                                     shared_fill_of, validate_config)
 from pipeline.common.layout import fields_paths, root
 
@@ -105,10 +105,9 @@ def start_from_option(wildcards: Any, input: Any) -> str:  # noqa: A002 (Snakema
     return f"--start-from {shlex.quote(str(Path(input.start[0]).parent))}" if input.start else ""
 
 
-def nonlocal_calibration_fields(config: dict[str, Any]) -> str:
-    """Fields file of the run the non-local parameters are fitted on."""
-    case, run = calibration_runs(config)[-1]
-    return str(root(config) / "fields" / case / f"{run}.nc")
+def nonlocal_calibration_fields(config: dict[str, Any]) -> list[str]:
+    """Fields files of the runs the non-local parameters are fitted on (their replica mean)."""
+    return [str(root(config) / "fields" / c / f"{r}.nc") for c, r in nonlocal_runs(config)]
 
 
 def rheometer_calibration_fields(config: dict[str, Any]) -> list[str]:

@@ -6,7 +6,8 @@ import pytest
 import xarray as xr
 
 from pipeline.scoring import metrics
-from pipeline.scoring.scores import dem_noise, intruder_noise_terms, moving_rod_speeds, pair_values
+from pipeline.scoring.intruder_scores import intruder_noise_terms, moving_rod_speeds
+from pipeline.scoring.scores import dem_noise, pair_values
 
 
 def _replica(z: np.ndarray, nu: np.ndarray) -> xr.Dataset:
