@@ -136,7 +136,27 @@ def admissible_interval(model: str, geometry: PlanarShear, make_params: Any, lo:
     if best is None:
         raise CalibrationError(f"model {model} has no solution on the calibration geometry for any l in "
                                f"[{lo:.3g}, {hi:.3g}] m")
-    return float(lengths[best[0]]), float(lengths[best[1] - 1])
+    low, high = float(lengths[best[0]]), float(lengths[best[1] - 1])
+    # The window's edges between the samples, by bisection in log l: a fit that ends on an edge
+    # then moves with the geometry and the local laws (the parameter draws), not with the sampling.
+    if best[0] > 0:
+        low = _edge(model, geometry, make_params, good=low, bad=float(lengths[best[0] - 1]), n_grid=n_grid)
+    if best[1] < samples:
+        high = _edge(model, geometry, make_params, good=high, bad=float(lengths[best[1]]), n_grid=n_grid)
+    return low, high
+
+
+def _edge(model: str, geometry: PlanarShear, make_params: Any, good: float, bad: float, n_grid: int,
+          steps: int = 8) -> float:
+    """The admissible length nearest ``bad`` (to 2^-steps of the log interval) that still solves."""
+    for _ in range(steps):
+        middle = math.sqrt(good * bad)
+        try:
+            continuum.solve(model, geometry, make_params(middle), n_grid=n_grid)
+            good = middle
+        except continuum.ContinuumError:
+            bad = middle
+    return good
 
 
 def builder(model: str, base: dict[str, float], settings: dict[str, Any]) -> Any:
@@ -197,40 +217,50 @@ def jackknife_error(leave_one_out: Sequence[float]) -> float:
 
 def calibrate_nonlocal(params: dict[str, Any], paths: Sequence[Path], settings: dict[str, Any]
                        ) -> tuple[dict[str, Any], dict[str, dict[str, float]]]:
-    """``params.json``'s ``nonlocal`` entries (module docstring) and each fit's log10 residuals in
-    the shear band and in the creep (:func:`region_residuals`) on the replica mean."""
+    """``params.json``'s ``nonlocal`` entries of the fields files ``paths`` (:func:`fit_replicas`)."""
     sets = [open_fields(p) for p in paths]
     try:
-        ratio = normal_stress_ratio(params)
-        base = {name: entry["value"] for name, entry in (params["local"] | params["critical_state"]).items()}
-        runs = [_label(ds, Path(p).stem)[1] for ds, p in zip(sets, paths)]
-        full = mean_creep(sets, settings, ratio)
-        single = {run: mean_creep([ds], settings, ratio) for run, ds in zip(runs, sets)}
-        left_out = ({run: mean_creep([o for o in sets if o is not ds], settings, ratio) for run, ds in zip(runs, sets)}
-                    if len(sets) >= 2 else {})
-        out: dict[str, Any] = {}
-        residuals: dict[str, dict[str, float]] = {}
-        for model, name in NONLOCAL_PARAMETER.items():
-            fit = fit_length(model, base, full, settings)
-            per_replica = {run: fit_length(model, base, data, settings).value for run, data in single.items()}
-            loo = {run: fit_length(model, base, data, settings).value for run, data in left_out.items()}
-            entry: dict[str, Any] = {"value": fit.value, "fitted_on": full.where,
-                                     "error_fit_curvature": fit.error, "chi2_reduced": fit.chi2_reduced,
-                                     "per_replica": per_replica, "n_replicas": len(sets)}
-            if loo:
-                jack = jackknife_error(list(loo.values()))
-                entry |= {"leave_one_out": loo, "error_jackknife": jack, "error": max(jack, fit.error),
-                          "error_method": f"the larger of the jackknife over {len(sets)} replicas (leave one out) "
-                                          "and the fit's curvature"}
-            else:
-                entry |= {"error": fit.error,
-                          "error_method": "the fit's curvature only: one replica, no realisation scatter measured"}
-            if fit.note:
-                entry["note"] = fit.note
-            out[model] = {name: entry}
-            residuals[model] = region_residuals(model, full.geometry, builder(model, base, settings)(fit.value),
-                                                full.z, full.u)
-        return out, residuals
+        for ds, p in zip(sets, paths):
+            ds.attrs.setdefault("run", Path(p).stem)
+        return fit_replicas(params, sets, settings)
     finally:
         for ds in sets:
             ds.close()
+
+
+def fit_replicas(params: dict[str, Any], sets: Sequence[xr.Dataset], settings: dict[str, Any],
+                 models: Sequence[str] = tuple(NONLOCAL_PARAMETER)) -> tuple[dict[str, Any], dict[str, dict[str, float]]]:
+    """The non-local entries (module docstring) and each fit's log10 residuals in the shear band and
+    in the creep (:func:`region_residuals`) on the replica mean, from the replicas' fields ``sets``."""
+    ratio = normal_stress_ratio(params)
+    base = {name: entry["value"] for name, entry in (params["local"] | params["critical_state"]).items()}
+    runs = [_label(ds)[1] for ds in sets]
+    full = mean_creep(sets, settings, ratio)
+    single = {run: mean_creep([ds], settings, ratio) for run, ds in zip(runs, sets)}
+    left_out = ({run: mean_creep([o for o in sets if o is not ds], settings, ratio) for run, ds in zip(runs, sets)}
+                if len(sets) >= 2 else {})
+    out: dict[str, Any] = {}
+    residuals: dict[str, dict[str, float]] = {}
+    for model in models:
+        name = NONLOCAL_PARAMETER[model]
+        fit = fit_length(model, base, full, settings)
+        per_replica = {run: fit_length(model, base, data, settings).value for run, data in single.items()}
+        loo = ({run: fit_length(model, base, data, settings).value for run, data in left_out.items()}
+               if len(sets) > 2 else per_replica)  # with two replicas, leaving one out leaves the other
+        entry: dict[str, Any] = {"value": fit.value, "fitted_on": full.where,
+                                 "error_fit_curvature": fit.error, "chi2_reduced": fit.chi2_reduced,
+                                 "per_replica": per_replica, "n_replicas": len(sets)}
+        if left_out:
+            jack = jackknife_error(list(loo.values()))
+            entry |= {"leave_one_out": loo, "error_jackknife": jack, "error": max(jack, fit.error),
+                      "error_method": f"the larger of the jackknife over {len(sets)} replicas (leave one out) "
+                                      "and the fit's curvature"}
+        else:
+            entry |= {"error": fit.error,
+                      "error_method": "the fit's curvature only: one replica, no realisation scatter measured"}
+        if fit.note:
+            entry["note"] = fit.note
+        out[model] = {name: entry}
+        residuals[model] = region_residuals(model, full.geometry, builder(model, base, settings)(fit.value),
+                                            full.z, full.u)
+    return out, residuals

@@ -126,6 +126,9 @@ def _check_calibration_set(config: dict[str, Any], source: str) -> None:
     if not runs:
         raise ConfigError(f"{source}: calibration.nonlocal_case = {case} is not a case of this config "
                           f"(cases: {', '.join(config['cases'])})")
+    if case == RHEOMETER or config["cases"][case]["geometry"] != "planar_shear":
+        raise ConfigError(f"{source}: calibration.nonlocal_case = {case}: the non-local lengths are fitted on a "
+                          "planar case with gravity (its creep), not on the rheometer or an intruder case")
     replicas = [r for c, r in dem_runs(config) if c == case and re.fullmatch(r"r\d+", r)]
     for c, run in runs:
         if (c, run) not in dem_runs(config) or run not in replicas:
@@ -133,9 +136,6 @@ def _check_calibration_set(config: dict[str, Any], source: str) -> None:
                               f"this config (replicas of {case}: {', '.join(replicas) or 'none'})")
     if len(set(runs)) != len(runs):
         raise ConfigError(f"{source}: calibration.nonlocal_runs names a run twice: {', '.join(r for _, r in runs)}")
-    if case == RHEOMETER or config["cases"][case]["geometry"] != "planar_shear":
-        raise ConfigError(f"{source}: calibration.nonlocal_case = {case}: the non-local lengths are fitted on a "
-                          "planar case with gravity (its creep), not on the rheometer or an intruder case")
 
 
 def size_classes(d: float, polydispersity: float, n_sizes: int) -> list[float]:

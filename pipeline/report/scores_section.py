@@ -17,6 +17,7 @@ import pandas as pd
 
 from pipeline.report.html import table_html
 from pipeline.report.style import MODEL_STYLE
+from pipeline.scoring.verdict import SCENE_METRICS
 
 #: Metrics shown first in the per-case tables and drawn in the forest plot.
 HEADLINE_METRICS = ("log_velocity_rmse", "velocity_rmse_rel", "decay_length_rel_err", "shear_band_width_rel_err",
@@ -44,14 +45,15 @@ def headline_table(verdicts: pd.DataFrame, scores: pd.DataFrame) -> pd.DataFrame
         worse = frame[frame.verdict == "worse"].sort_values("value")
         none = frame[frame.verdict == "no_prediction"]
         noise = scores[(scores.case == case) & (scores.metric == metric)]["dem_noise"]
+        shown_metric = metric if str(b.points).endswith("z points") else f"{metric} (on {b.points})"
         rows.append({
-            "case": case, "metric": metric,
-            "cannot be told apart (best first)": ", ".join([f"{b.model} {_pm(b.value, b.u_val)}"]
+            "case": case, "metric": shown_metric,
+            "cannot be told apart (best first)": "; ".join([f"{b.model} {_pm(b.value, b.u_val)}"]
                                                             + [f"{r.model} {_pm(r.value, r.u_val)}" for r in tied.itertuples()]),
-            "worse": ", ".join(f"{r.model} {_pm(r.value, r.u_val)}" for r in worse.itertuples()) or "none",
-            "best's u_dem": b.u_dem, "u_input": b.u_input, "u_num": b.u_num,
-            "DEM noise (replica vs replica)": float(noise.iloc[0]) if len(noise) and np.isfinite(noise.iloc[0]) else "n/a: one replica",
-            "points": b.points, "no prediction": ", ".join(sorted(none.model)) or "none",
+            "worse": "; ".join(f"{r.model} {_pm(r.value, r.u_val)}" for r in worse.itertuples()) or "none",
+            "best's u_dem / u_input / u_num": f"{b.u_dem:.2g} / {b.u_input:.2g} / {b.u_num:.2g}",
+            "DEM noise": f"{float(noise.iloc[0]):.3g}" if len(noise) and np.isfinite(noise.iloc[0]) else "n/a: one replica",
+            "not predicted by": ", ".join(sorted(none.model)) or "none",
         })
     table = pd.DataFrame(rows).astype(object)
     return table.where(pd.notna(table), "n/a")
@@ -151,8 +153,13 @@ def score_section(root: Path, figures: Any, nonlocal_where: str, config: dict[st
             fig.text(0.5, 0.5, "no held-out score", ha="center")
             parts.append(figures.add("verdict", fig, "No held-out case was scored."))
     else:
+        judged = verdicts.metric.isin(SCENE_METRICS)
         parts.append(f"<h3>Which models cannot be told apart from the best ({confidence:.0%})</h3>"
-                     + table_html(headline_table(verdicts, held), css_class="scores"))
+                     "<p class='note'>Creep and flow metrics (every other in the table below it). Values +- u_val; "
+                     "'DEM noise': the metric between two single replicas.</p>"
+                     + table_html(headline_table(verdicts[judged], held), css_class="scores")
+                     + "<details><summary>the other metrics (solid fraction, stress ratio, fluidity)</summary>"
+                     + table_html(headline_table(verdicts[~judged], held), css_class="scores") + "</details>")
         replicas = {case: int(spec.get("replicas", 1)) for case, spec in config["cases"].items()}
         parts.append(figures.add("verdict", forest_figure(verdicts, held, replicas),
                                  "Each model's held-out score with its 95 % interval (+- 1.96 u_val); dashed: the DEM's "

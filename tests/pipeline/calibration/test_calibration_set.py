@@ -1,4 +1,4 @@
-"""The calibration set: only the rheometer runs and the named non-local run ever reach the fits."""
+"""The calibration set: only the rheometer runs and the named non-local case's replicas ever reach the fits."""
 from __future__ import annotations
 
 import json
@@ -30,18 +30,33 @@ def test_a_validation_run_handed_to_the_calibration_is_refused() -> None:
     config = load_config(CI)
     with pytest.raises(CalibrationError, match="shear_gravity_heavy/r1: not in the calibration set"):
         check_calibration_set(config, [("rheometer", "I0.02-P200-r1"), ("shear_gravity_heavy", "r1")])
-    with pytest.raises(CalibrationError, match="shear_gravity/r2"):
-        check_calibration_set(config, [("shear_gravity", "r2")])  # another replica of the calibration case
+    with pytest.raises(CalibrationError, match="shear_gravity/L4-r1"):
+        check_calibration_set(config, [("shear_gravity", "L4-r1")])  # a size-study run of the calibration case
+    # Every replica of the calibration case, and only those, by default.
+    assert [r for c, r in calibration_runs(config) if c == "shear_gravity"] == ["r1", "r2"]
     check_calibration_set(config, calibration_runs(config))
 
 
-@pytest.mark.parametrize("case, run, words", [("shear_gravity", "r9", "is not a DEM run"),
-                                              ("intruder", "D4-r1", "planar case with gravity"),
-                                              ("rheometer", "I0.02-P200-r1", "planar case with gravity")])
-def test_config_names_an_existing_planar_nonlocal_run(case: str, run: str, words: str) -> None:
+@pytest.mark.parametrize("case, runs, words", [("shear_gravity", ["r9"], "shear_gravity/r9 is not a replica run"),
+                                               ("shear_gravity", ["L4-r1"], "nonlocal_runs"),
+                                               ("shear_gravity", ["r1", "r1"], "names a run twice"),
+                                               ("intruder", ["D4-r1"], "nonlocal_runs"),
+                                               ("intruder", "all", "planar case with gravity"),
+                                               ("rheometer", "all", "planar case with gravity"),
+                                               ("no_such_case", "all", "is not a case of this config")])
+def test_config_names_existing_planar_nonlocal_runs(case: str, runs: list[str] | str, words: str) -> None:
     config = yaml.safe_load(CI.read_text())
-    config["calibration"].update(nonlocal_case=case, nonlocal_run=run)
+    config["calibration"].update(nonlocal_case=case, nonlocal_runs=runs)
     with pytest.raises(ConfigError, match=words):
+        validate_config(config, "c.yaml")
+
+
+def test_a_subset_of_replicas_may_be_named_once() -> None:
+    config = yaml.safe_load(CI.read_text())
+    config["calibration"]["nonlocal_runs"] = ["r2"]
+    assert [r for c, r in calibration_runs(validate_config(config, "c.yaml")) if c == "shear_gravity"] == ["r2"]
+    config["calibration"]["nonlocal_run"] = "r1"
+    with pytest.raises(ConfigError, match="both given"):
         validate_config(config, "c.yaml")
 
 

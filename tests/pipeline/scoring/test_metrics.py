@@ -79,7 +79,7 @@ def test_score_case_rows_and_noise_floor(tmp_path: Path) -> None:
     model["u_x"] = ("z", 2.0 * creep(Z, 0.004))
     model.attrs.update({"n_grid": 100, "solve_seconds": 0.001})
     model.to_netcdf(tmp_path / "m.nc")
-    table = score_case("shear_gravity", reps, {"toy": tmp_path / "m.nc"})
+    table, _ = score_case("shear_gravity", reps, {"toy": tmp_path / "m.nc"})
     rows = table.set_index("metric")
     # The model predicts u only: no nu or mu rows, never a placeholder.
     assert "nu_rmse" not in rows.index and "mu_rmse" not in rows.index
