@@ -100,18 +100,22 @@ rule decay_length:
 
 rule error_check:
     message:
-        "Replica scatter against the stated error bars"
+        "Replica scatter against the stated error bars: profiles, scalars, rods; creep in the production's halves"
     conda:
         ENV
     input:
-        [f for case in layout.scored_cases(config) for f in layout.fields_paths(config, case)],
+        fields=[f for case in layout.scored_cases(config) for f in layout.fields_paths(config, case)],
+        rheometer=layout.fields_paths(config, "rheometer"),
+        intruder_runs=layout.all_intruder_run_jsons(config),
     output:
         table=f"{ROOT}/validation/error_check.csv",
         resolution=f"{ROOT}/validation/creep_resolution.csv",
+        halves=f"{ROOT}/validation/creep_halves.csv",
     log:
         f"{ROOT}/logs/error_check.log",
     benchmark:
         f"{ROOT}/benchmarks/error_check.tsv"
     shell:
-        "python -m pipeline.scoring error-check --fields {input} --out {output.table} "
-        "--resolution-out {output.resolution} > {log} 2>&1"
+        "python -m pipeline.scoring error-check --fields {input.fields} --rheometer {input.rheometer} "
+        "--intruder-runs {input.intruder_runs} --out {output.table} --resolution-out {output.resolution} "
+        "--halves-out {output.halves} > {log} 2>&1"

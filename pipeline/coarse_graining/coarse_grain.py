@@ -44,6 +44,7 @@ import xarray as xr
 
 from pipeline.dumps.reader import Dump, DumpError, check_particle_rows, read_contacts, read_particles
 from pipeline.common import atomic
+from pipeline.common.statistics import integrated_autocorrelation_time
 from pipeline.common.cli import nonnegative_float, positive_float, positive_int
 from pipeline.coarse_graining.kernels import KERNELS, Kernel, segment_2d
 from pipeline.coarse_graining.vtk import write_fields_vtk
@@ -604,25 +605,6 @@ def derive(sums: np.ndarray, d: float, rho_s: float) -> dict[str, np.ndarray]:
         "fluidity": ratio(shear_rate, mu, np.isfinite(mu) & (np.nan_to_num(mu) > 0)),
         "granular_temperature": ratio(kinetic["xx"] + kinetic["yy"] + kinetic["zz"], 3.0 * rho, positive),
     }
-
-
-def integrated_autocorrelation_time(series: np.ndarray, window_factor: float = 5.0) -> np.ndarray:
-    """Integrated autocorrelation time (in samples) of each column of ``series`` (time on axis 0),
-    ``tau = 1/2 + sum_{k=1}^{M} rho(k)`` with Sokal's self-consistent window (the smallest M with
-    M >= window_factor * tau(M)); at least 1/2 (uncorrelated samples). NaN where a column is not finite."""
-    n = series.shape[0]
-    x = series - series.mean(axis=0)
-    spectrum = np.fft.rfft(x, n=2 * n, axis=0)
-    acov = np.fft.irfft(spectrum * np.conj(spectrum), axis=0)[:n]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        rho = acov / acov[:1]
-    tau = 0.5 + np.cumsum(rho[1:], axis=0)  # tau(M) for M = 1 .. n-1
-    m = np.arange(1, n)[:, None] if series.ndim > 1 else np.arange(1, n)
-    shape = (n - 1,) + (1,) * (series.ndim - 1)
-    ok = m.reshape(shape) >= window_factor * tau
-    first = np.where(ok.any(axis=0), ok.argmax(axis=0), n - 2)
-    out = np.take_along_axis(tau, first[None, ...], axis=0)[0]
-    return np.where(np.isfinite(out), np.maximum(out, 0.5), np.nan)
 
 
 def block_average(stack: np.ndarray, blocks: int, d: float, rho_s: float) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray], int]:

@@ -23,7 +23,8 @@ from dataclasses import dataclass
 import numpy as np
 import xarray as xr
 
-from pipeline.coarse_graining.coarse_grain import batch, derive, integrated_autocorrelation_time
+from pipeline.coarse_graining.coarse_grain import batch, derive
+from pipeline.common.statistics import integrated_autocorrelation_time
 from pipeline.dumps.reader import Dump
 from pipeline.coarse_graining.kernels import Kernel
 

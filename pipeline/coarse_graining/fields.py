@@ -40,6 +40,7 @@ from pipeline.coarse_graining.kernels import Kernel
 from pipeline.coarse_graining.vtk import write_fields_vtk, write_particles_vtu
 from pipeline.common.formats import FIELDS_FORMAT_VERSION
 from pipeline.common.provenance import provenance_attrs
+from pipeline.common.statistics import integrated_autocorrelation_time
 from pipeline.dem.wall_series import read_wall_series
 
 DEFAULTS: dict[str, Any] = {
@@ -171,15 +172,51 @@ def run_fields(config: dict[str, Any], run_dir: Path, plane: bool = False,
                                         "displacement over the window (pipeline.coarse_graining.displacement)"})
         ds["u_x_disp_err"] = ("z", u_disp_err, {"units": "m s-1", "long_name": "standard error of u_x_disp from "
                                                 f"{min(int(opts['blocks']), chosen.size - 1)} sub-window batch means"})
+        add_half_windows(ds, particles, chosen, times, kernel, int(opts["blocks"]))
     if not plane and x_shift is None:
         ds.attrs.update(bulk_means(result, ds, walls, opts, d, float(run["density"])))
         add_structural_error(ds, particles, chosen, kernel, d, opts["bulk_margin_over_d"] * d)
+    if not plane and x_shift is None:
+        ds.attrs.update(wall_friction(production_series(run_dir, run)))
     found: dict[str, Any] = {}
     if checks and not plane:
         found = physical_checks(ds, run, run_dir, particles, contacts, chosen, kernel, walls, opts, result.sums)
         for key, value in found.items():
             ds.attrs[f"check_{key}"] = value
     return result, found
+
+
+def wall_friction(series: pd.DataFrame, blocks: int = 8) -> dict[str, float]:
+    """The top wall's friction ``|<f_x>| / <f_z>`` over the production window and its standard
+    error: the larger of the batch-means error of ``blocks`` blocks' ratios and the autocorrelation-
+    time estimate of the per-sample ratio's mean (the wall's slip events correlate the samples)."""
+    fx, fz = series["ftop_x"].to_numpy(), series["ftop_z"].to_numpy()
+    value = float(abs(fx.mean()) / fz.mean())
+    ratios = np.array([abs(bx.mean()) / bz.mean() for bx, bz in zip(np.array_split(fx, blocks), np.array_split(fz, blocks))])
+    block_err = float(ratios.std(ddof=1) / math.sqrt(blocks))
+    sample = np.abs(fx) / np.where(fz > 0, fz, np.nan)
+    sample = sample[np.isfinite(sample)]
+    tau = float(integrated_autocorrelation_time(sample[:, None])[0]) if sample.size > 8 else math.nan
+    auto_err = float(sample.std(ddof=1) * math.sqrt(2.0 * tau / sample.size)) if math.isfinite(tau) else math.nan
+    return {"wall_friction": value, "wall_friction_err": float(np.nanmax([block_err, auto_err]))}
+
+
+def add_half_windows(ds: xr.Dataset, particles: Dump, chosen: np.ndarray, times: np.ndarray, kernel: Kernel,
+                     blocks: int) -> None:
+    """``u_x_disp`` over the first and the second half of the window (``u_x_disp_first_half``,
+    ``u_x_disp_second_half``, each with its time error): creep still relaxing shows as a second half
+    slower than the first beyond their errors (validation/creep_halves.csv). The halves share the
+    packing, so the structural error, common to both, is left out of their difference."""
+    if chosen.size < 5:
+        return
+    middle = chosen.size // 2
+    for name, part in (("first_half", slice(0, middle + 1)), ("second_half", slice(middle, None))):
+        u, err = displacement_velocity(particles, chosen[part], times[part], kernel, ds.z.values, max(2, blocks // 2))
+        ds[f"u_x_disp_{name}"] = ("z", u, {"units": "m s-1", "long_name": f"u_x_disp over the {name.replace('_', ' ')} "
+                                           "of the window"})
+        ds[f"u_x_disp_{name}_err"] = ("z", err, {"units": "m s-1", "long_name": f"standard error of u_x_disp_{name} "
+                                                 "from its sub-window batch means"})
+    ds.attrs["half_window_split_time"] = float(times[middle])
 
 
 def add_structural_error(ds: xr.Dataset, particles: Dump, chosen: np.ndarray, kernel: Kernel, d: float,

@@ -46,7 +46,7 @@ from pipeline.common.formats import RUN_FORMAT_VERSION
 from pipeline.dem.liggghts_log import DEMRunError, check_run, printed_value
 from pipeline.common.provenance import provenance
 from pipeline.dem.rough_wall import layer_include, random_layer
-from pipeline.dem.steady_state import balance_test, drift_test
+from pipeline.dem.steady_state import balance_test, band_speeds, creep_settled, drift_test
 from pipeline.dem.wall_series import PAIRSUM_COLUMNS, read_wall_series
 
 #: Column of ``delta`` (overlap) among the pair/gran/local outputs ``pos id force contactPoint delta``
@@ -62,6 +62,9 @@ INSERTION_SOLID_FRACTION = 0.25
 MIN_GAP_OVER_D = 6.0
 #: Damping ratio of the top wall's vertical motion on the bed (see PlanarShearRun._wall_damping).
 WALL_DAMPING_RATIO = 0.1
+#: Depth bands (edges in d below the top wall's grain centres) in which the steady-state test
+#: compares the creep of consecutive windows (``dem.steady_creep_bands_over_d`` overrides).
+STEADY_CREEP_BANDS = (3.0, 6.0, 9.0, 12.0, 15.0, 18.0)
 #: Kinetic energy per grain, in units of m g d, below which the poured packing counts as settled.
 SETTLED_KE_PER_GRAIN = 1e-3
 #: A shared fill's record, in its folder (pipeline.dem.shared_fill).
@@ -546,9 +549,34 @@ class PlanarShearRun:
         depth = self.state["fill"]["settled_gap"]
         force = drift_test(data["time"], data["ftop_x"], self.dem["steady_force_tol"], float(data["ftop_x"].mean()))
         height = drift_test(data["time"], data["h_top"], self.dem["steady_height_tol"], depth)
-        return {"force": force.as_dict(), "height": height.as_dict(), "load": self.load_balance(data),
+        test = {"force": force.as_dict(), "height": height.as_dict(), "load": self.load_balance(data),
                 "stationary": force.stationary and height.stationary,
                 "t_start": window_chunks[0]["t_start"], "t_end": window_chunks[-1]["t_end"]}
+        if self._tests_creep():
+            creep = self._creep_test(window_chunks)
+            test |= {"creep": creep, "stationary": bool(test["stationary"] and creep["stationary"])}
+        return test
+
+    def _tests_creep(self) -> bool:
+        """Whether the steady-state test also holds the creep (``dem.steady_creep_tol``): planar
+        shear with gravity whose shear chunks keep their snapshots (the window becomes production)."""
+        return (self.case["geometry"] == "planar_shear" and self.case["gravity"] > 0
+                and self.dem.get("steady_creep_tol") is not None and self._window_is_production())
+
+    def _creep_test(self, window_chunks: list[dict[str, Any]]) -> dict[str, Any]:
+        """The window's creep against the window of as many shear chunks before it, band by band
+        (:func:`pipeline.dem.steady_state.creep_settled`); not stationary until there is one."""
+        shear = [c for c in self.state["chunks"] if c["kind"] == "shear"]
+        first = next(k for k, c in enumerate(shear) if c["stage"] == window_chunks[0]["stage"])
+        n = len(window_chunks)
+        if first < n:
+            return {"stationary": False, "reason": "no earlier window yet", "tested": 0}
+        earlier = shear[first - n:first]
+        d = self.mat["d"]
+        means = precision.chunk_means([self.run_dir / c["dumps"][0] for c in [*earlier, *window_chunks]], d,
+                                      self.design.dt, self.reference_speed(), precision.BULK_MARGIN_OVER_D * d)
+        bands, edges = band_speeds(means.u_disp_over_v, means.depth, d, tuple(self.dem.get("steady_creep_bands_over_d", STEADY_CREEP_BANDS)))
+        return creep_settled(bands[:n], bands[n:], edges, float(self.dem["steady_creep_tol"]))
 
     def top_load(self) -> float:
         """The top wall's load (N, downwards): ``wall_pressure`` times the cell's area."""
@@ -573,9 +601,17 @@ class PlanarShearRun:
 
     def _steady_summary(self, test: dict[str, Any]) -> str:
         """One clause for the log: each drift as a fraction of what the test allows."""
-        return (f"force drift {abs(test['force']['drift']) / test['force']['allowed']:.2f}, height drift "
-                f"{abs(test['height']['drift']) / test['height']['allowed']:.2f} of allowed; top-wall push / load "
-                f"{test['load']['ratio']:.3f}")
+        out = (f"force drift {abs(test['force']['drift']) / test['force']['allowed']:.2f}, height drift "
+               f"{abs(test['height']['drift']) / test['height']['allowed']:.2f} of allowed; top-wall push / load "
+               f"{test['load']['ratio']:.3f}")
+        creep = test.get("creep")
+        if creep is None:
+            return out
+        if "bands" not in creep:
+            return out + f"; creep: {creep['reason']}"
+        parts = [f"{r['depth_over_d'][0]:g}-{r['depth_over_d'][1]:g} d {r['log10_change']:+.2f} "
+                 f"({abs(r['log10_change']) / r['allowed']:.2f} of allowed)" for r in creep["bands"] if "settled" in r]
+        return out + "; creep change in decades against the window before: " + (", ".join(parts) or "no band resolved")
 
     # ------------------------------------------------------------------------------------ run
     def run(self) -> dict[str, Any]:
@@ -618,7 +654,9 @@ class PlanarShearRun:
                     f"last drift test: force {test.get('force')}, height {test.get('height')}"
                 )
             if self._window_is_production():
-                self._drop_stale_dumps(shear[max(0, len(shear) - window + 1):])
+                # The creep test compares the window with the one before it: keep both.
+                kept = 2 * window - 1 if self._tests_creep() else window - 1
+                self._drop_stale_dumps(shear[max(0, len(shear) - kept):])
             self._progress(self._run_chunk("shear", len(shear), plan), plan)
         while True:
             produced = [c for c in self.state["chunks"] if c["kind"] == "production"]

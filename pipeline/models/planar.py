@@ -70,9 +70,13 @@ def solve_on_case(model: str, case: str, params: dict[str, Any], fields: list[xr
         raise ModelRunError(f"model {model} on case {case}: solver reports no convergence "
                             f"(residual {solution.attrs.get('residual')})")
     z_dem = fields[0].z.values
-    z_model = np.clip(z_dem - z0, 0.0, geometry.depth)
+    # The scores compare at equal depth below the top contact plane (pipeline.scoring.replicas):
+    # the first replica's z, measured down from its own top plane, placed below the model's top.
+    top = float(fields[0].attrs.get("z_top_contact_plane", z0 + geometry.depth))
+    z_model = np.clip(geometry.depth - (top - z_dem), 0.0, geometry.depth)
     out = xr.Dataset(coords={"z": ("z", z_dem, {"units": "m", "long_name": "height (DEM frame)"})})
-    out["z_model"] = ("z", z_model, {"units": "m", "long_name": "height above the bottom wall (model frame)"})
+    out["z_model"] = ("z", z_model, {"units": "m", "long_name": "height above the bottom wall (model frame): the "
+                                     "model's depth less the depth below the first replica's top contact plane"})
     for name, var in solution.data_vars.items():
         out[name] = ("z", np.interp(z_model, solution.z.values, var.values), dict(var.attrs))
     out.attrs.update(solution.attrs)

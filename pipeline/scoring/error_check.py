@@ -12,11 +12,14 @@ controlled wall moves the whole profile at once), so the number of independent p
 from the correlation length of the standardised residuals along z (:func:`replica_chi2`); the
 table gives chi2's standard error sqrt(2 / dof) and the probability of a departure from 1 at
 least as large (``p_value``) if the errors hold. Written to ``validation/error_check.csv``
-(case, field, chi2, chi2_err, pairs, points, replicas, dof, p_value, correlation_points).
+(case, field, chi2, chi2_err, pairs, points, replicas, dof, p_value, correlation_points,
+error_scale), with the scalars' rows (:mod:`pipeline.scoring.scalar_checks`: the rheometer's bulk
+means, the wall friction, the rods' speeds) after the profiles'.
 """
 from __future__ import annotations
 
 import argparse
+import json
 import math
 from pathlib import Path
 
@@ -25,10 +28,11 @@ import pandas as pd
 import xarray as xr
 from scipy import stats
 
-from pipeline.coarse_graining.coarse_grain import integrated_autocorrelation_time
+from pipeline.common.statistics import integrated_autocorrelation_time
 from pipeline.common import atomic
+from pipeline.scoring import scalar_checks
 from pipeline.common.observables import creep_speed, decades_resolved, replica_mean
-from pipeline.scoring.replicas import align_replicas, interior
+from pipeline.scoring.replicas import align_replicas, interior, top_plane
 
 FIELDS = ("u_x", "u_x_disp", "nu", "sigma_zz", "sigma_xz", "mu")
 
@@ -115,9 +119,9 @@ def replica_mean_resolution(paths: list[Path]) -> list[dict[str, object]]:
                 continue
             first = sets[0]
             mask = interior(first)
-            depth = float(first.attrs["z_top_wall"]) - first.z.values[mask]
+            depth = top_plane(first) - first.z.values[mask]
             n = len(files)
-            mean, err = replica_mean(depth, [(float(ds.attrs["z_top_wall"]) - ds.z.values, *creep_speed(ds)[:2])
+            mean, err = replica_mean(depth, [(top_plane(ds) - ds.z.values, *creep_speed(ds)[:2])
                                              for ds in sets])
             # Ordered from the bottom up like a profile: depth decreasing.
             decades, slowest = decades_resolved(mean[::-1], err[::-1], float(first.attrs["wall_speed"]))
@@ -128,13 +132,58 @@ def replica_mean_resolution(paths: list[Path]) -> list[dict[str, object]]:
     return rows
 
 
+def scalar_rows(rheometer: list[Path], fields: list[Path], intruder_runs: list[Path]) -> list[dict]:
+    """The scalars' replica checks (:mod:`pipeline.scoring.scalar_checks`): the rheometer states'
+    bulk means, each planar case's wall friction, the rods' speeds."""
+    rows = []
+    if rheometer:
+        states: dict[str, list[xr.Dataset]] = {}
+        for path in rheometer:
+            states.setdefault(path.stem.rsplit("-", 1)[0], []).append(xr.open_dataset(path))
+        rows += scalar_checks.rheometer_rows(states)
+        for reps in states.values():
+            for ds in reps:
+                ds.close()
+    for case in sorted({p.parent.name for p in fields}):
+        sets = [xr.open_dataset(p) for p in sorted(fields) if p.parent.name == case]
+        if len(sets) >= 2:
+            rows.append(scalar_checks.wall_friction_row(case, sets))
+        for ds in sets:
+            ds.close()
+    if intruder_runs:
+        rows.append(scalar_checks.rod_speed_row([json.loads(p.read_text()) for p in intruder_runs]))
+    return rows
+
+
+def halves_table(fields: list[Path]) -> pd.DataFrame:
+    """``validation/creep_halves.csv``: each planar gravity run's production, first half against second."""
+    frames = []
+    for path in sorted(fields):
+        with xr.open_dataset(path) as ds:
+            if float(ds.attrs.get("gravity", 0.0)) > 0:
+                frames.append(scalar_checks.creep_halves(ds))
+    frames = [f for f in frames if not f.empty]
+    return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame(columns=scalar_checks.HALVES_COLUMNS)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description="Replica scatter against the stated error bars, per case and field.")
     parser.add_argument("--fields", nargs="+", required=True, type=Path, help="fields/CASE/RUN.nc (replicas grouped by folder)")
+    parser.add_argument("--rheometer", nargs="*", default=[], type=Path, help="fields/rheometer/*.nc: the states' bulk means")
+    parser.add_argument("--intruder-runs", nargs="*", default=[], type=Path, help="run.json of the intruder runs: the rods' speeds")
     parser.add_argument("--out", required=True, type=Path)
     parser.add_argument("--resolution-out", type=Path, default=None,
                         help="also write the decades of creep each run resolves (validation/creep_resolution.csv)")
+    parser.add_argument("--halves-out", type=Path, default=None,
+                        help="also write each planar run's creep, first half of its production against the second "
+                             "(validation/creep_halves.csv)")
     args = parser.parse_args(argv)
+    if args.halves_out is not None:
+        halves = halves_table(args.fields)
+        atomic.write_csv(halves, args.halves_out)
+        for (case, run), frame in halves.groupby(["case", "run"]):
+            print(f"{case}/{run}: creep halves at {len(frame)} depths, mean z {frame.z.mean():+.2f}, "
+                  f"chi2 {np.mean(frame.z ** 2):.2f}")
     if args.resolution_out is not None:
         resolution = creep_resolution(args.fields)
         atomic.write_csv(resolution, args.resolution_out)
@@ -146,11 +195,13 @@ def main(argv: list[str] | None = None) -> int:
             continue
         reps = align_replicas([xr.open_dataset(f) for f in files])
         for field in FIELDS:
-            rows.append({"case": case, "field": field, **replica_chi2(reps, field)})
+            check = replica_chi2(reps, field)
+            rows.append({"case": case, "field": field, **check,
+                         "error_scale": scalar_checks.error_scale(check["chi2"], check["chi2_err"])})
         for ds in reps:
             ds.close()
-    table = pd.DataFrame(rows, columns=["case", "field", "chi2", "chi2_err", "pairs", "points", "replicas", "dof",
-                                        "p_value", "correlation_points"])
+    rows += scalar_rows(args.rheometer, args.fields, args.intruder_runs)
+    table = pd.DataFrame(rows, columns=scalar_checks.SCALAR_COLUMNS)
     atomic.write_csv(table, args.out)
     print(table.to_string(index=False))
     return 0

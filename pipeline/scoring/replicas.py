@@ -25,10 +25,24 @@ def replica_profiles(files: list[Path]) -> list[xr.Dataset]:
     return align_replicas([xr.open_dataset(f) for f in files])
 
 
+def top_plane(ds: xr.Dataset) -> float:
+    """Height (m, DEM frame) of the top wall's contact plane, the moving wall the creep decays from
+    (the wall grains' centres where a fields file has no contact planes)."""
+    return float(ds.attrs.get("z_top_contact_plane", ds.attrs["z_top_wall"]))
+
+
+def bottom_plane(ds: xr.Dataset) -> float:
+    """Height (m) of the bottom wall's contact plane (its grains' centres without contact planes)."""
+    return float(ds.attrs.get("z_bottom_contact_plane", ds.attrs["z_bottom_wall"]))
+
+
 def align_replicas(sets: list[xr.Dataset]) -> list[xr.Dataset]:
-    """Replica profiles, each interpolated onto the first one's z (their walls differ slightly),
-    with the creep speed ``u_creep`` (:func:`pipeline.common.observables.creep_speed`) added."""
-    aligned = [sets[0]] + [ds.interp(z=sets[0].z) for ds in sets[1:]]
+    """Replica profiles on the first one's z, each placed by its depth below its own top contact
+    plane (the frame of the models and the scores: the replicas' walls differ by a fraction of a
+    grain), with the creep speed ``u_creep`` (:func:`pipeline.common.observables.creep_speed`) added."""
+    ref = top_plane(sets[0])
+    aligned = [sets[0]] + [ds.assign_coords(z=ds.z.values - top_plane(ds) + ref).interp(z=sets[0].z).assign_attrs(ds.attrs)
+                           for ds in sets[1:]]
     out = []
     for ds in aligned:
         u, err, _ = creep_speed(ds)
@@ -38,16 +52,17 @@ def align_replicas(sets: list[xr.Dataset]) -> list[xr.Dataset]:
 
 
 def interior(ds: xr.Dataset) -> np.ndarray:
-    """Mask of the points at least the wall margin from both walls' grain centres.
+    """Mask of the points at least ``WALL_MARGIN_OVER_D`` grain diameters of bed from both walls'
+    contact planes (the models' walls).
 
-    The wall layer (within ``WALL_MARGIN_OVER_D`` d of a wall's grain centres) is excluded from
-    every profile score: there the grains touch a rigid rough wall, a boundary layer none of the
-    bulk laws describes (its stress ratio is far above the rheometer bulk's at the same I).
+    The wall layer is excluded from every profile score: there the grains touch a rigid rough wall,
+    a boundary layer none of the bulk laws describes (its stress ratio is far above the rheometer
+    bulk's at the same I). Before 2026-12-02 the margin was counted from the wall grains' centres,
+    about 0.42 d outside the contact planes, so it held about half a grain of bed.
     """
     d = float(ds.attrs["d"])
-    z0, z1 = float(ds.attrs["z_bottom_wall"]), float(ds.attrs["z_top_wall"])
     z = ds.z.values
-    return (z >= z0 + WALL_MARGIN_OVER_D * d) & (z <= z1 - WALL_MARGIN_OVER_D * d)
+    return (z >= bottom_plane(ds) + WALL_MARGIN_OVER_D * d) & (z <= top_plane(ds) - WALL_MARGIN_OVER_D * d)
 
 
 def mean_profile(reps: list[xr.Dataset], name: str) -> tuple[np.ndarray, np.ndarray]:

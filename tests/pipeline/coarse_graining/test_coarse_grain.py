@@ -391,7 +391,7 @@ def test_segment_with_tabulated_cdf_is_the_same(rng):
 
 
 def test_integrated_autocorrelation_time_of_known_processes(rng):
-    from pipeline.coarse_graining.coarse_grain import integrated_autocorrelation_time
+    from pipeline.common.statistics import integrated_autocorrelation_time
     # White noise: tau = 1/2. AR(1) with coefficient phi: tau = (1 + phi) / (2 (1 - phi)).
     white = rng.standard_normal((20000, 2))
     assert np.allclose(integrated_autocorrelation_time(white), 0.5, atol=0.05)

@@ -1,0 +1,62 @@
+"""Statistics of correlated series shared by the stages (the DEM stopping rules, the fields' errors,
+the scores' checks)."""
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+
+import numpy as np
+from scipy import stats
+
+
+def integrated_autocorrelation_time(series: np.ndarray, window_factor: float = 5.0) -> np.ndarray:
+    """Integrated autocorrelation time (in samples) of each column of ``series`` (time on axis 0),
+    ``tau = 1/2 + sum_{k=1}^{M} rho(k)`` with Sokal's self-consistent window (the smallest M with
+    M >= window_factor * tau(M)); at least 1/2 (uncorrelated samples). NaN where a column is not finite."""
+    n = series.shape[0]
+    x = series - series.mean(axis=0)
+    spectrum = np.fft.rfft(x, n=2 * n, axis=0)
+    acov = np.fft.irfft(spectrum * np.conj(spectrum), axis=0)[:n]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rho = acov / acov[:1]
+    tau = 0.5 + np.cumsum(rho[1:], axis=0)  # tau(M) for M = 1 .. n-1
+    m = np.arange(1, n)[:, None] if series.ndim > 1 else np.arange(1, n)
+    shape = (n - 1,) + (1,) * (series.ndim - 1)
+    ok = m.reshape(shape) >= window_factor * tau
+    first = np.where(ok.any(axis=0), ok.argmax(axis=0), n - 2)
+    out = np.take_along_axis(tau, first[None, ...], axis=0)[0]
+    return np.where(np.isfinite(out), np.maximum(out, 0.5), np.nan)
+
+
+def error_scale(chi2: float, chi2_err: float) -> float:
+    """``sqrt(chi2)`` where it departs from 1 by more than twice its error, else 1 (NaN: no check)."""
+    if not (math.isfinite(chi2) and math.isfinite(chi2_err)):
+        return math.nan
+    return math.sqrt(chi2) if abs(chi2 - 1.0) > 2.0 * chi2_err else 1.0
+
+
+def pooled_chi2(groups: Iterable[tuple[np.ndarray, np.ndarray]]) -> dict[str, float]:
+    """The pooled replica chi2 of ``groups`` of (values, stated errors) (module docstring)."""
+    total, dof, points, pairs, replicas = 0.0, 0, 0, 0, 0
+    for values, errors in groups:
+        values, errors = np.asarray(values, dtype=float), np.asarray(errors, dtype=float)
+        ok = np.isfinite(values) & np.isfinite(errors) & (errors > 0)
+        values, errors = values[ok], errors[ok]
+        if values.size < 2:
+            continue
+        w = 1.0 / errors**2
+        mean = float(np.sum(w * values) / np.sum(w))
+        total += float(np.sum(((values - mean) / errors) ** 2))
+        dof += values.size - 1
+        points += 1
+        pairs += values.size * (values.size - 1) // 2
+        replicas = max(replicas, values.size)
+    if dof == 0:
+        return {"chi2": math.nan, "chi2_err": math.nan, "pairs": 0, "points": points, "replicas": replicas,
+                "dof": math.nan, "p_value": math.nan, "correlation_points": math.nan, "error_scale": math.nan}
+    chi2 = total / dof
+    cdf = float(stats.chi2.cdf(total, dof))
+    chi2_err = math.sqrt(2.0 / dof)
+    return {"chi2": chi2, "chi2_err": chi2_err, "pairs": pairs, "points": points, "replicas": replicas,
+            "dof": float(dof), "p_value": float(min(1.0, 2.0 * min(cdf, 1.0 - cdf))), "correlation_points": math.nan,
+            "error_scale": error_scale(chi2, chi2_err)}

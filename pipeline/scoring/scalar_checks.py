@@ -1,0 +1,83 @@
+"""Do the stated errors of the scalars hold? Replica scatter against the stated errors of every
+scalar the calibration and the scores read: the rheometer states' bulk mu, nu and I, the planar
+runs' wall friction, the intruder rods' speeds; and the creep of each planar run's production in
+its first half against its second (creep still relaxing shows as a second half slower beyond the
+errors).
+
+For a scalar measured in n >= 2 replicas of one state (a rheometer state, a planar case, a rod
+depth), ``sum_r (x_r - xbar)^2 / err_r^2`` (xbar the inverse-variance mean) is chi-squared with
+n - 1 degrees of freedom if the stated errors are right; the groups are pooled:
+``chi2 = sum over groups / sum (n_g - 1)``, its standard error ``sqrt(2 / dof)``. ``error_scale``
+is ``sqrt(chi2)`` where chi2 departs from 1 by more than twice its error (the stated errors are to
+be multiplied by it), else 1.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import xarray as xr
+
+from pipeline.common.statistics import error_scale, pooled_chi2  # noqa: F401 (error_scale: used by error_check)
+
+SCALAR_COLUMNS = ["case", "field", "chi2", "chi2_err", "pairs", "points", "replicas", "dof", "p_value",
+                  "correlation_points", "error_scale"]
+HALVES_COLUMNS = ["case", "run", "depth_over_d", "first_over_v", "first_err_over_v", "second_over_v",
+                  "second_err_over_v", "log10_change", "log10_change_err", "z"]
+
+
+def rheometer_rows(states: dict[str, list[xr.Dataset]]) -> list[dict]:
+    """``bulk_mu``, ``bulk_nu``, ``bulk_I`` of the rheometer: ``states`` maps a state (run id without
+    its replica) to its replicas' fields."""
+    rows = []
+    for name in ("mu", "nu", "I"):
+        groups = [(np.array([float(ds.attrs[f"bulk_{name}"]) for ds in reps]),
+                   np.array([float(ds.attrs[f"bulk_{name}_err"]) for ds in reps])) for reps in states.values()]
+        rows.append({"case": "rheometer", "field": f"bulk_{name}", **pooled_chi2(groups)})
+    return rows
+
+
+def wall_friction_row(case: str, reps: list[xr.Dataset]) -> dict:
+    """The top wall's friction of a planar case's replicas."""
+    have = [ds for ds in reps if "wall_friction" in ds.attrs]
+    group = (np.array([float(ds.attrs["wall_friction"]) for ds in have]),
+             np.array([float(ds.attrs["wall_friction_err"]) for ds in have]))
+    return {"case": case, "field": "wall_friction", **pooled_chi2([group])}
+
+
+def rod_speed_row(runs: list[dict]) -> dict:
+    """The moving sheared rods' speeds, by depth (replicas at one target depth form a group)."""
+    groups: dict[float, list[tuple[float, float]]] = {}
+    for r in runs:
+        rod = r["intruder"]
+        if rod["control"] or rod["arrested"]:
+            continue
+        groups.setdefault(round(rod["depth_target_over_d"], 6), []).append((rod["speed"], rod["speed_err"]))
+    pooled = pooled_chi2((np.array([s for s, _ in g]), np.array([e for _, e in g])) for g in groups.values())
+    return {"case": runs[0]["case"] if runs else "intruder", "field": "rod_speed", **pooled}
+
+
+def creep_halves(ds: xr.Dataset) -> pd.DataFrame:
+    """First-half against second-half creep of one planar run, at every whole d below the top
+    contact plane inside the walls where both halves are resolved (above twice their errors)."""
+    if "u_x_disp_first_half" not in ds:
+        return pd.DataFrame(columns=HALVES_COLUMNS)
+    d, v = float(ds.attrs["d"]), float(ds.attrs["wall_speed"])
+    depth = (float(ds.attrs["z_top_contact_plane"]) - ds.z.values) / d
+    height = (ds.z.values - float(ds.attrs["z_bottom_contact_plane"])) / d
+    order = np.argsort(depth)
+    rows = []
+    for target in np.arange(1.0, math.floor(depth.max()), 1.0):
+        if np.interp(target, depth[order], height[order]) < 1.0:
+            break
+        a, ea, b, eb = (float(np.interp(target, depth[order], ds[n].values[order])) for n in
+                        ("u_x_disp_first_half", "u_x_disp_first_half_err", "u_x_disp_second_half", "u_x_disp_second_half_err"))
+        if not (a > 2 * ea and b > 2 * eb):
+            continue
+        change = math.log10(b / a)
+        change_err = math.hypot(ea / a, eb / b) / math.log(10.0)
+        rows.append({"case": str(ds.attrs.get("case", "")), "run": str(ds.attrs.get("run", "")), "depth_over_d": target,
+                     "first_over_v": a / v, "first_err_over_v": ea / v, "second_over_v": b / v, "second_err_over_v": eb / v,
+                     "log10_change": change, "log10_change_err": change_err, "z": change / change_err})
+    return pd.DataFrame(rows, columns=HALVES_COLUMNS)
