@@ -28,6 +28,7 @@ from pipeline.calibration.parameter_sets import CalibrationError, calibration_se
 from pipeline.common.config import calibration_runs, load_config, validation_cases
 from pipeline.common.formats import open_fields
 from pipeline.common.provenance import provenance
+from pipeline.common.statistics import pooled_chi2
 
 #: Slope d nu_cs / d ln p used when the DEM resolves none (rigid grains): the order of the
 #: relative grain compliance (mean overlap / d ~ 1e-3).
@@ -82,6 +83,28 @@ def bulk_state(path: Path, margin_over_d: float) -> dict[str, float]:
     return out
 
 
+def scale_state_errors(states: list[dict[str, Any]], runs: list[str]) -> dict[str, dict[str, float]]:
+    """Hold the states' stated errors of mu, nu and I to their replicas' scatter: with two or more
+    replicas of a state (run ids that differ in their ``-r<k>`` only), the pooled replica chi2
+    (:func:`pipeline.common.statistics.pooled_chi2`); where it departs from 1 by more than twice its
+    error, every state's error of that quantity is multiplied by ``sqrt(chi2)`` (in place). Returns
+    the check per quantity (``error_scale`` 1 where the errors held, NaN without replicas)."""
+    groups: dict[str, list[int]] = {}
+    for k, run in enumerate(runs):
+        groups.setdefault(run.rsplit("-r", 1)[0], []).append(k)
+    out = {}
+    for name in ("mu", "nu", "I"):
+        check = pooled_chi2((np.array([states[k][name] for k in ks]), np.array([states[k][f"{name}_err"] for k in ks]))
+                            for ks in groups.values())
+        scale = check["error_scale"]
+        if math.isfinite(scale) and scale != 1.0:
+            for state in states:
+                state[f"{name}_err_stated"] = state[f"{name}_err"]
+                state[f"{name}_err"] = state[f"{name}_err"] * scale
+        out[name] = {k: check[k] for k in ("chi2", "chi2_err", "dof", "error_scale")}
+    return out
+
+
 def _entry(value: float, error: float, fitted_on: str, note: str = "") -> dict[str, Any]:
     entry: dict[str, Any] = {"value": float(value), "error": float(error), "fitted_on": fitted_on}
     if note:
@@ -97,6 +120,7 @@ def calibrate(config: dict[str, Any], rheometer_files: list[Path], nonlocal_file
     read = [run_label(Path(f)) for f in [*rheometer_files, *nonlocal_files]]
     check_calibration_set(config, read)
     states = [bulk_state(Path(f), settings["bulk_margin_over_d"]) for f in rheometer_files]
+    error_scales = scale_state_errors(states, [run_label(Path(f))[1] for f in rheometer_files])
     if len(states) < 3:
         raise CalibrationError(f"mu(I) has 3 parameters: need at least 3 rheometer states, got {len(states)}")
     arr = {k: np.array([s[k] for s in states]) for k in ("I", "I_err", "mu", "mu_err", "nu", "nu_err", "p")}
@@ -140,6 +164,7 @@ def calibrate(config: dict[str, Any], rheometer_files: list[Path], nonlocal_file
         "normal_stresses": normal_stress_entries(states),
         "microscopic_fluidity": microscopic_fluidity_fit(states, float(states[0]["d"])),
         "rheometer_states": states,
+        "rheometer_error_scale": error_scales,
         # The exact runs this calibration read: every score on a case with one of them is a fit.
         "calibration_runs": [f"{case}/{run}" for case, run in read],
         "nonlocal": {},
