@@ -29,6 +29,7 @@ from pipeline.common.provenance import software_versions
 from pipeline.common.layout import (convergence_cases, convergence_paths, fields_paths, intruder_cases, model_names, scored_cases,
                                     shared_fill_paths)
 from pipeline.dem.wall_series import read_wall_series
+from pipeline.report.creep_section import decay_length_section
 from pipeline.report.scores_section import score_section
 from pipeline.report.style import MODEL_STYLE
 from pipeline.scoring.replicas import align_replicas
@@ -341,44 +342,6 @@ def calibration_section(root: Path, figures: Figures) -> str:
                "in the shear band (u &gt; 0.1 V) and in the creep below; points weighted by their log error, floored "
                "at 0.1 decade so that the band does not decide the lengths.</p>" + table_html(residuals)
                if not residuals.empty else ""))
-
-
-def decay_length_section(root: Path, figures: Figures) -> str:
-    """The decay length of creep against mu / mu_s: DEM (every planar case) and the models."""
-    folder = root / "validation"
-    dem = pd.read_csv(folder / "decay_length.csv")
-    models = pd.read_csv(folder / "decay_length_models.csv")
-    fits = pd.read_csv(folder / "decay_length_fit.csv")
-    params = json.loads((root / "calibration" / "params.json").read_text())
-    d, mu_s = float(params["d"]), float(params["local"]["mu_s"]["value"])
-    fig, ax = plt.subplots(figsize=(7.5, 4.5))
-    markers = "os^vD<>"
-    for k, (case, sub) in enumerate(dem.groupby("case")):
-        ax.errorbar(sub.mu_over_mu_s, sub.xi / d, yerr=sub.xi_err / d, fmt=markers[k % len(markers)], ms=4,
-                    color="k", mfc="white" if sub.role.iloc[0] == "held_out" else "k", alpha=0.8,
-                    label=f"DEM {case} ({sub.role.iloc[0].replace('_', '-')})")
-    for (model, case), sub in models.groupby(["model", "case"]):
-        color, ls = MODEL_STYLE.get(model, ("k", "-"))
-        sub = sub.sort_values("mu_over_mu_s")
-        ax.plot(sub.mu_over_mu_s, sub.xi / d, color=color, ls=ls, lw=1.2, label=f"{model}" if case == models.case.iloc[0] else None)
-    dem_fit = fits[fits.source == "dem"]
-    if len(dem_fit) and np.isfinite(dem_fit.iloc[0].get("beta", np.nan)):
-        f = dem_fit.iloc[0]
-        x = np.linspace(max(dem.mu_over_mu_s.min(), 0.05), min(dem.mu_over_mu_s.max(), 0.995), 100)
-        ax.plot(x, f.C * (mu_s * (1 - x)) ** (-f.beta), color="grey", lw=2, alpha=0.6,
-                label=f"DEM fit, beta = {f.beta:.2f} +- {f.beta_err:.2f}")
-    ax.set_yscale("log")
-    ax.set_xlabel("local stress ratio mu / mu_s (-)")
-    ax.set_ylabel("local creep decay length xi / d (-)")
-    ax.legend(fontsize=7)
-    return ("<h2>The decay-length law of creep</h2><p class='note'>xi = 1 / (d ln u_x / dz) over windows of 1 d "
-            "in the creeping zone (u below 0.1 V, resolved at 2 sigma), against the window's mu / mu_s; open markers: "
-            "held-out cases. NGF predicts xi = A d / sqrt(mu_s - mu) (beta = 1/2, as Bouzid et al. 2013 found in DEM); "
-            "the volume-averaged model, in this project's derivation, xi = l (beta = 0). Fit: xi / d = "
-            "C (mu_s - mu)^(-beta) over the windows below yield.</p>"
-            + figures.add("decay_length", fig, "Local creep decay length against the local stress ratio, DEM of every "
-                          "planar case with the fit of the power law, and each model's own xi(mu).")
-            + table_html(fits))
 
 
 # --------------------------------------------------------------------------------- stability

@@ -1,29 +1,37 @@
-"""The decay-length law of creep: ``validation/decay_length.csv`` and its fit.
+"""The decay-length law of creep, like for like: ``validation/decay_length.csv`` and its fits.
 
 In the creeping zone of planar shear with gravity the velocity decays with depth. Its local decay
-length, with z up and the moving wall on top,
+rate, with z up and the moving wall on top,
 
-    xi(z) = 1 / (d ln u_x / dz)   (m; positive where u_x falls away from the moving wall),
+    k(z) = d ln u_x / dz = 1 / xi   (m-1; positive where u_x falls away from the moving wall),
 
-is the ``-1 / (d ln u / dx)`` of the literature with x the depth below the wall. NGF predicts
-``xi = A d / sqrt(mu_s - mu)`` (exponent 1/2, Kamrin & Koval 2012; Bouzid et al. 2013 found it in
-DEM); a model with one fixed internal length, this project's reading of the volume-averaged
-model, ``xi = l`` whatever mu. Changing the top-wall pressure moves mu(z), so the cases together
-span a range of mu / mu_s against which the two predictions separate.
+is ``1 / xi`` with ``xi = -1 / (d ln u / dx)`` of the literature (x the depth below the wall). NGF
+predicts ``xi = A d / sqrt(mu_s - mu)`` (exponent 1/2, Kamrin & Koval 2012; Bouzid et al. 2013 found
+it in DEM on both sides of yield); a model with one fixed internal length, this project's reading of
+the volume-averaged model, ``xi = l`` whatever mu.
 
-Measurement, per run: non-overlapping windows of ``window_over_d`` d over the interior (at least
-the scores' wall margin from both walls) where the creep speed (:func:`pipeline.common.observables
-.creep_speed`) is below ``CREEP_FRACTION`` of the wall speed and resolved (above twice its error at
-every point of the window). In each window a weighted straight-line fit of ln u against z gives the
-slope and its error; the error is multiplied by sqrt(kernel width / grid spacing) because
-neighbouring profile points share grains through the kernel, and by sqrt(chi2) where the scatter
-exceeds the stated errors. Windows whose slope is not positive at two standard errors are left out.
-Each row carries the window's mean stress ratio mu = |sigma_xz| / p.
+Windows (per run): consecutive non-overlapping windows of ``WINDOW_OVER_D`` d, by depth below the
+top contact plane, inside the scores' margin (:func:`pipeline.scoring.replicas.interior`), where
+the creep speed (:func:`pipeline.common.observables.creep_speed`) is below ``CREEP_FRACTION`` of the
+wall speed and resolved (above twice its error) at every point, from the band's edge down to the
+deepest resolved window. There is **no cut on the slope's significance**: a deep window whose slope
+is small against its error is a measurement of a long decay length, and it stays in (the earlier cut,
+slopes above two errors, removed the deep end, where the law is decided). Each window's slope k
+comes from a weighted straight-line fit of ln u on z, its error from the fit (the points' errors,
+no kernel inflation) times one scale, the replicas' own verdict on it: windows of two replicas of a
+case at the same depth differ by ``sqrt(mean z^2)`` times their combined stated errors
+(:func:`replica_error_scale`), which the slope errors are multiplied by. Each row carries the
+window's mean stress ratio and inertial number.
 
-Fit: ``xi / d = C (mu_s - mu)^(-beta)`` by weighted least squares in log space over the rows below
-yield (mu < mu_s, mu_s from the calibration), the error of each row combining that of xi and that
-of mu through the current beta; beta's error is scaled by sqrt(chi2) when above 1. The same
-windows on each model's own u_x(z) and mu(z) give the model's xi(mu) and beta.
+Fit: ``k d = (mu_s - mu)^beta / C`` (so ``xi / d = C (mu_s - mu)^(-beta)``) by weighted least
+squares **in k** over the windows below yield (mu < mu_s), the error of each row combining that of
+k and that of mu through the current beta; a slope near zero or below it is then a point like any
+other. Fitted on all windows, and without the windows nearest the band (``u / V >= BAND_EDGE``), so
+that the band's edge cannot decide beta. Model selection between ``xi`` constant (beta = 0, one
+parameter) and the power law (two): the chi2 difference (likelihood ratio, chi2 with one degree of
+freedom when the errors are Gaussian) and the AIC difference. Each model's k and mu on exactly the
+DEM's windows (the same depths of the same case, the model's own u and mu there) give the model's
+beta on the same footing.
 """
 from __future__ import annotations
 
@@ -35,162 +43,218 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import xarray as xr
+from scipy import stats
 from scipy.optimize import curve_fit
 
 from pipeline.common import atomic
-from pipeline.common.observables import creep_speed
 from pipeline.common.config import load_config
+from pipeline.common.observables import creep_speed
 from pipeline.common.provenance import provenance
-from pipeline.scoring.replicas import WALL_MARGIN_OVER_D
+from pipeline.scoring.replicas import WALL_MARGIN_OVER_D, bottom_plane, top_plane
 from pipeline.scoring.scores import calibration_cases
 
 #: Creep: speeds below this fraction of the wall speed (the shear band above is not creep).
 CREEP_FRACTION = 0.1
+#: The windows nearest the band are those at or above this u / V: the fit is also made without them.
+BAND_EDGE = 0.01
 WINDOW_OVER_D = 1.0
-COLUMNS = ["case", "run", "z", "mu", "xi", "xi_err", "mu_err", "mu_over_mu_s", "depth_below_top", "u_over_V",
-           "speed_source", "role"]
-MODEL_COLUMNS = ["case", "model", "z", "mu", "xi", "mu_over_mu_s", "depth_below_top"]
+COLUMNS = ["case", "run", "z", "mu", "xi", "xi_err", "I", "slope", "slope_err", "mu_err", "mu_over_mu_s",
+           "depth_below_top", "u_over_V", "speed_source", "role", "window"]
+MODEL_COLUMNS = ["case", "model", "run", "window", "z", "mu", "xi", "slope", "mu_over_mu_s", "depth_below_top", "u_over_V"]
 
 
 class DecayLengthError(ValueError):
     """Too few resolved creep windows to fit the law; the message says where."""
 
 
-def _windows(z: np.ndarray, z_lo: float, z_hi: float, width: float) -> list[np.ndarray]:
-    """Index sets of consecutive non-overlapping windows of ``width`` over [z_lo, z_hi]."""
-    edges = np.arange(z_lo, z_hi + 1e-12, width)
-    return [np.nonzero((z >= a) & (z < b))[0] for a, b in zip(edges[:-1], edges[1:])]
+def window_slope(z: np.ndarray, u: np.ndarray, err: np.ndarray | None) -> tuple[float, float]:
+    """Slope of ln u on z (m-1) and its error from the points' errors (0 for an exact profile)."""
+    y = np.log(u)
+    if err is None:
+        return float(np.polyfit(z, y, 1)[0]), 0.0
+    sigma = err / u
+    coef, cov = np.polyfit(z, y, 1, w=1.0 / sigma, cov="unscaled")
+    return float(coef[0]), float(math.sqrt(cov[0, 0]))
 
 
-def local_decay_lengths(z: np.ndarray, u: np.ndarray, err: np.ndarray | None, mu: np.ndarray,
-                        z_lo: float, z_hi: float, wall_speed: float, width: float,
-                        correlation: float = 1.0) -> pd.DataFrame:
-    """Decay length per window (module docstring); ``err=None`` for an exact (model) profile.
-
-    Returns columns z (window centre), xi, xi_err, mu, mu_err, u_over_V.
-    """
-    rows = []
-    for idx in _windows(z, z_lo, z_hi, width):
+def creep_windows(depth: np.ndarray, u: np.ndarray, err: np.ndarray | None, wall_speed: float, width: float,
+                  lo: float, hi: float) -> list[tuple[int, np.ndarray]]:
+    """(window index, point indices) of the resolved creep windows between depths ``lo`` and ``hi``
+    (m below the top plane): windows of ``width`` counted from ``lo``, from the first below the band
+    down to the last resolved one (the walk stops at the first window not resolved)."""
+    out = []
+    started = False
+    for k, a in enumerate(np.arange(lo, hi - 0.5 * width, width)):
+        idx = np.nonzero((depth >= a) & (depth < a + width))[0]
         if idx.size < 3:
             continue
         uu = u[idx]
-        if not np.all(np.isfinite(uu)) or np.any(uu <= 0) or np.any(uu >= CREEP_FRACTION * wall_speed):
+        if not np.all(np.isfinite(uu)) or np.any(uu >= CREEP_FRACTION * wall_speed):
+            if started:
+                break
             continue
-        y, x = np.log(uu), z[idx]
-        if err is None:
-            if np.any(uu < 1e-12 * wall_speed):
-                continue
-            slope = np.polyfit(x, y, 1)[0]
-            slope_err = 0.0
-        else:
-            ee = err[idx]
-            if not np.all(np.isfinite(ee)) or np.any(uu <= 2.0 * ee):
-                continue
-            sigma = ee / uu
-            coef, cov = np.polyfit(x, y, 1, w=1.0 / sigma, cov="unscaled")
-            slope = coef[0]
-            resid = (y - np.polyval(coef, x)) / sigma
-            chi2 = float(np.sum(resid**2) / max(idx.size - 2, 1))
-            slope_err = math.sqrt(cov[0, 0]) * math.sqrt(correlation) * math.sqrt(max(chi2, 1.0))
-            if not slope > 2.0 * slope_err:
-                continue
-        if not slope > 0:
-            continue
-        m = mu[idx]
-        rows.append({"z": float(x.mean()), "xi": 1.0 / slope, "xi_err": slope_err / slope**2,
-                     "mu": float(np.mean(m)), "u_over_V": float(np.exp(y.mean()) / wall_speed)})
-    return pd.DataFrame(rows, columns=["z", "xi", "xi_err", "mu", "u_over_V"])
-
-
-def fit_law(mu: np.ndarray, xi_over_d: np.ndarray, xi_err_over_d: np.ndarray | None, mu_err: np.ndarray | None,
-            mu_s: float) -> dict[str, float]:
-    """Fit ``xi / d = C (mu_s - mu)^(-beta)`` over the rows with mu < mu_s (module docstring)."""
-    mu, xi_over_d = np.asarray(mu, dtype=float), np.asarray(xi_over_d, dtype=float)
-    xi_err_over_d = None if xi_err_over_d is None else np.asarray(xi_err_over_d, dtype=float)
-    mu_err = None if mu_err is None else np.asarray(mu_err, dtype=float)
-    below = mu < mu_s
-    x = np.log(mu_s - mu[below])
-    y = np.log(xi_over_d[below])
-    n = int(below.sum())
-    if n < 3 or np.ptp(x) == 0:
-        raise DecayLengthError(f"{n} decay lengths below yield: need 3 or more over a range of mu")
-    exact = xi_err_over_d is None
-
-    def line(xx: np.ndarray, log_c: float, beta: float) -> np.ndarray:
-        return log_c - beta * xx
-
-    beta, log_c = 0.5, float(np.mean(y + 0.5 * x))
-    sigma = None
-    for _ in range(3):
-        if not exact:
-            s_xi = xi_err_over_d[below] / xi_over_d[below]
-            s_mu = beta * (mu_err[below] if mu_err is not None else 0.0) / (mu_s - mu[below])
-            sigma = np.sqrt(s_xi**2 + s_mu**2)
-        (log_c, beta), cov = curve_fit(line, x, y, p0=[log_c, beta], sigma=sigma, absolute_sigma=not exact)
-    resid = (y - line(x, log_c, beta)) / (sigma if sigma is not None else 1.0)
-    chi2 = float(np.sum(resid**2) / max(n - 2, 1))
-    scale = math.sqrt(max(chi2, 1.0)) if not exact else 1.0
-    return {"beta": float(beta), "beta_err": float(math.sqrt(cov[1, 1]) * scale), "C": float(math.exp(log_c)),
-            "C_err": float(math.exp(log_c) * math.sqrt(cov[0, 0]) * scale), "chi2_reduced": chi2, "n_points": n,
-            "mu_over_mu_s_min": float(mu[below].min() / mu_s), "mu_over_mu_s_max": float(mu[below].max() / mu_s)}
-
-
-def _interior(ds: xr.Dataset, d: float) -> tuple[float, float]:
-    return (float(ds.attrs["z_bottom_wall"]) + WALL_MARGIN_OVER_D * d, float(ds.attrs["z_top_wall"]) - WALL_MARGIN_OVER_D * d)
+        if err is not None and (not np.all(np.isfinite(err[idx])) or np.any(uu <= 2.0 * err[idx])):
+            break
+        if np.any(uu <= 0):
+            break
+        started = True
+        out.append((k, idx))
+    return out
 
 
 def dem_rows(path: Path, mu_s: float, role: str) -> pd.DataFrame:
-    """The decay-length rows of one DEM fields file."""
+    """The decay-rate windows of one DEM fields file (module docstring), errors not yet scaled."""
     with xr.open_dataset(path) as ds:
         d = float(ds.attrs["d"])
         u, err, disp = creep_speed(ds)
         z = ds.z.values
-        correlation = float(ds.attrs["width"]) / float(z[1] - z[0])
-        lo, hi = _interior(ds, d)
-        frame = local_decay_lengths(z, u, err, ds["mu"].values, lo, hi, float(ds.attrs["wall_speed"]),
-                                    WINDOW_OVER_D * d, correlation)
-        mu_err = []
-        sources = []
-        for zc in frame.z:
-            idx = np.nonzero(np.abs(z - zc) <= 0.5 * WINDOW_OVER_D * d)[0]
-            mu_err.append(float(np.mean(ds["mu_err"].values[idx])))
-            sources.append("u_x_disp" if disp[idx].mean() >= 0.5 else "u_x")
-        top = float(ds.attrs["z_top_wall"])
-        frame = frame.assign(case=str(ds.attrs.get("case", path.parent.name)), run=str(ds.attrs.get("run", path.stem)),
-                             mu_err=mu_err, mu_over_mu_s=frame.mu / mu_s, depth_below_top=top - frame.z,
-                             speed_source=sources, role=role)
-    return frame[COLUMNS]
+        top, bottom = top_plane(ds), bottom_plane(ds)
+        depth = top - z
+        v = float(ds.attrs["wall_speed"])
+        lo, hi = WALL_MARGIN_OVER_D * d, (top - bottom) - WALL_MARGIN_OVER_D * d
+        rows = []
+        for k, idx in creep_windows(depth, u, err, v, WINDOW_OVER_D * d, lo, hi):
+            slope, slope_err = window_slope(z[idx], u[idx], err[idx])
+            rows.append({"case": str(ds.attrs.get("case", path.parent.name)), "run": str(ds.attrs.get("run", path.stem)),
+                         "window": k, "z": float(z[idx].mean()), "slope": slope, "slope_err": slope_err,
+                         "xi": 1.0 / slope if slope > 0 else math.inf,
+                         "mu": float(ds["mu"].values[idx].mean()), "mu_err": float(ds["mu_err"].values[idx].mean()),
+                         "I": float(ds["I"].values[idx].mean()), "depth_below_top": float(depth[idx].mean()),
+                         "u_over_V": float(np.exp(np.log(u[idx]).mean()) / v),
+                         "speed_source": "u_x_disp" if disp[idx].mean() >= 0.5 else "u_x", "role": role})
+    frame = pd.DataFrame(rows, columns=[c for c in COLUMNS if c not in ("mu_over_mu_s", "xi_err")])
+    return frame.assign(mu_over_mu_s=frame.mu / mu_s)
 
 
-def model_rows(path: Path, mu_s: float, d: float) -> pd.DataFrame:
-    """The decay-length rows of one model solution (models/{case}/{model}.nc), on its own mu."""
+def replica_error_scale(windows: pd.DataFrame) -> tuple[float, int]:
+    """The replicas' verdict on the slope errors: for every pair of replicas of a case with a window
+    at the same depth, ``z = (k_a - k_b) / sqrt(s_a^2 + s_b^2)``; returns ``sqrt(mean z^2)`` and the
+    number of pairs (scale 1 with fewer than 3 pairs: nothing to judge by)."""
+    terms = []
+    for (_, _), group in windows.groupby(["case", "window"]):
+        rows = group.to_dict("records")
+        for i in range(len(rows)):
+            for j in range(i + 1, len(rows)):
+                a, b = rows[i], rows[j]
+                combined = math.hypot(a["slope_err"], b["slope_err"])
+                if combined > 0:
+                    terms.append(((a["slope"] - b["slope"]) / combined) ** 2)
+    if len(terms) < 3:
+        return 1.0, len(terms)
+    return float(math.sqrt(np.mean(terms))), len(terms)
+
+
+def _power(x: np.ndarray, inv_c: float, beta: float) -> np.ndarray:
+    return inv_c * np.power(x, beta)
+
+
+def fit_law(mu: np.ndarray, slope_d: np.ndarray, slope_err_d: np.ndarray | None, mu_err: np.ndarray | None,
+            mu_s: float, beta_fixed: float | None = None) -> dict[str, float]:
+    """Fit ``k d = (mu_s - mu)^beta / C`` over the rows with mu < mu_s (module docstring); with
+    ``beta_fixed``, C only. ``slope_d`` is k d (dimensionless); ``slope_err_d`` its errors (None:
+    exact rows, equal weights)."""
+    mu, slope_d = np.asarray(mu, dtype=float), np.asarray(slope_d, dtype=float)
+    below = mu < mu_s
+    x = mu_s - mu[below]
+    y = slope_d[below]
+    n = int(below.sum())
+    needed = 2 if beta_fixed is not None else 3
+    if n < needed or (beta_fixed is None and np.ptp(x) == 0):
+        raise DecayLengthError(f"{n} decay rates below yield: need {needed} or more over a range of mu")
+    exact = slope_err_d is None
+    beta, inv_c = (0.5 if beta_fixed is None else beta_fixed), float(np.mean(y) / np.mean(x ** 0.5))
+    sigma = None
+    for _ in range(4):
+        if not exact:
+            s_k = np.asarray(slope_err_d, dtype=float)[below]
+            s_mu = 0.0 if mu_err is None else np.abs(inv_c * beta * x ** (beta - 1.0)) * np.asarray(mu_err)[below]
+            sigma = np.sqrt(s_k**2 + s_mu**2)
+        if beta_fixed is None:
+            (inv_c, beta), cov = curve_fit(_power, x, y, p0=[inv_c, beta], sigma=sigma, absolute_sigma=not exact,
+                                           maxfev=20000)
+        else:
+            (inv_c,), cov = curve_fit(lambda xx, a: _power(xx, a, beta_fixed), x, y, p0=[inv_c], sigma=sigma,
+                                      absolute_sigma=not exact)
+            cov = np.array([[cov[0, 0], 0.0], [0.0, 0.0]])
+    resid = (y - _power(x, inv_c, beta)) / (sigma if sigma is not None else 1.0)
+    k = 1 if beta_fixed is not None else 2
+    chi2 = float(np.sum(resid**2))
+    scale = math.sqrt(max(chi2 / max(n - k, 1), 1.0)) if not exact else 1.0
+    c = 1.0 / inv_c if inv_c != 0 else math.inf
+    return {"beta": float(beta), "beta_err": float(math.sqrt(cov[1, 1]) * scale), "C": float(c),
+            "C_err": float(abs(c) * math.sqrt(cov[0, 0]) / abs(inv_c) * scale) if inv_c else math.inf,
+            "chi2": chi2, "chi2_reduced": chi2 / max(n - k, 1), "n_points": n,
+            "mu_over_mu_s_min": float(mu[below].min() / mu_s), "mu_over_mu_s_max": float(mu[below].max() / mu_s)}
+
+
+def select_model(windows: pd.DataFrame, mu_s: float, d: float) -> dict[str, float]:
+    """xi constant against the power law on the same windows: chi2 difference and its p-value
+    (likelihood ratio, one degree of freedom), AIC of each (chi2 + 2 k) and their difference
+    (positive: the power law is preferred)."""
+    args = (windows.mu.values, windows.slope.values * d, windows.slope_err.values * d, windows.mu_err.values, mu_s)
+    power = fit_law(*args)
+    constant = fit_law(*args, beta_fixed=0.0)
+    delta = constant["chi2"] - power["chi2"]
+    return {"chi2_constant": constant["chi2"], "chi2_power": power["chi2"], "delta_chi2": delta,
+            "p_value_constant": float(stats.chi2.sf(max(delta, 0.0), 1)),
+            "aic_constant": constant["chi2"] + 2.0, "aic_power": power["chi2"] + 4.0,
+            "delta_aic": (constant["chi2"] + 2.0) - (power["chi2"] + 4.0),
+            "xi_constant_over_d": constant["C"], "xi_constant_over_d_err": constant["C_err"],
+            "preferred": "power law" if (constant["chi2"] + 2.0) - (power["chi2"] + 4.0) > 2.0 else
+                         ("xi constant" if (constant["chi2"] + 2.0) - (power["chi2"] + 4.0) < -2.0 else "neither (|delta AIC| <= 2)")}
+
+
+def model_rows(path: Path, windows: pd.DataFrame, mu_s: float, d: float, fields: dict[tuple[str, str], Path]
+               ) -> pd.DataFrame:
+    """The model's slope and mu on exactly the DEM's windows of its case (the same depths below the
+    top plane of each DEM run's window), from models/{case}/{model}.nc."""
+    rows = []
     with xr.open_dataset(path) as sol:
         if "u_x" not in sol or "mu" not in sol:
             return pd.DataFrame(columns=MODEL_COLUMNS)
-        z = sol.z.values
-        z0 = float(sol.attrs["z_bottom_wall"])
-        lo, hi = z0 + WALL_MARGIN_OVER_D * d, z0 + float(sol.attrs["depth"]) - WALL_MARGIN_OVER_D * d
-        frame = local_decay_lengths(z, sol.u_x.values, None, sol.mu.values, lo, hi, float(sol.attrs["wall_speed"]),
-                                    WINDOW_OVER_D * d)
-        top = z0 + float(sol.attrs["depth"])
-        frame = frame.assign(case=str(sol.attrs.get("case", path.parent.name)), model=path.stem,
-                             mu_over_mu_s=frame.mu / mu_s, depth_below_top=top - frame.z)
-    return frame[MODEL_COLUMNS]
+        case = str(sol.attrs.get("case", path.parent.name))
+        depth_model = float(sol.attrs["depth"]) - sol.z_model.values
+        order = np.argsort(depth_model)
+        for w in windows[windows.case == case].itertuples():
+            with xr.open_dataset(fields[(case, w.run)]) as ds:
+                depth = top_plane(ds) - ds.z.values
+                d_ = float(ds.attrs["d"])
+                idx = np.nonzero((depth >= w.depth_below_top - 0.5 * WINDOW_OVER_D * d_)
+                                 & (depth < w.depth_below_top + 0.5 * WINDOW_OVER_D * d_))[0]
+                depths = depth[idx]
+            u = np.interp(depths, depth_model[order], sol.u_x.values[order])
+            mu = float(np.interp(depths, depth_model[order], sol.mu.values[order]).mean())
+            if depths.size < 3 or np.any(~(u > 0)):
+                continue
+            slope = float(np.polyfit(-depths, np.log(u), 1)[0])
+            rows.append({"case": case, "model": path.stem, "run": w.run, "window": w.window, "z": w.z, "mu": mu,
+                         "xi": 1.0 / slope if slope > 0 else math.inf, "slope": slope, "mu_over_mu_s": mu / mu_s,
+                         "depth_below_top": w.depth_below_top,
+                         "u_over_V": float(np.exp(np.log(u).mean()) / float(sol.attrs["wall_speed"]))})
+    return pd.DataFrame(rows, columns=MODEL_COLUMNS)
 
 
 def fits_table(dem: pd.DataFrame, models: pd.DataFrame, mu_s: float, d: float) -> pd.DataFrame:
-    """beta and C of the DEM (all planar cases together) and of each model (all its cases)."""
+    """beta and C of the DEM and of each model on the DEM's windows, all windows and without those
+    nearest the band, with the model selection for the DEM."""
     rows = []
-    try:
-        rows.append({"source": "dem", **fit_law(dem.mu.values, dem.xi.values / d, dem.xi_err.values / d,
-                                                 dem.mu_err.values, mu_s)})
-    except DecayLengthError as exc:
-        rows.append({"source": "dem", "note": str(exc)})
-    for model, sub in models.groupby("model"):
+    # The model rows are cut by their DEM window's speed, so both are fitted on the same windows.
+    keyed = models.merge(dem[["case", "run", "window", "u_over_V"]].rename(columns={"u_over_V": "dem_u_over_V"}),
+                         on=["case", "run", "window"], how="inner")
+    for cut, limit in (("all windows", math.inf), (f"u/V < {BAND_EDGE:g}", BAND_EDGE)):
+        sub = dem[dem.u_over_V < limit]
+        base = {"windows": cut, "n_windows": len(sub)}
         try:
-            rows.append({"source": model, **fit_law(sub.mu.values, sub.xi.values / d, None, None, mu_s)})
-        except DecayLengthError as exc:
-            rows.append({"source": model, "note": str(exc)})
+            rows.append({"source": "dem", **base, **fit_law(sub.mu.values, sub.slope.values * d, sub.slope_err.values * d,
+                                                           sub.mu_err.values, mu_s), **select_model(sub, mu_s, d)})
+        except (DecayLengthError, RuntimeError) as exc:
+            rows.append({"source": "dem", **base, "note": str(exc)})
+        for model, msub in keyed[keyed.dem_u_over_V < limit].groupby("model"):
+            try:
+                rows.append({"source": model, **base, "n_windows": len(msub),
+                             **fit_law(msub.mu.values, msub.slope.values * d, None, None, mu_s)})
+            except (DecayLengthError, RuntimeError) as exc:
+                rows.append({"source": model, **base, "n_windows": len(msub), "note": str(exc)})
     return pd.DataFrame(rows)
 
 
@@ -207,15 +271,23 @@ def main(argv: list[str] | None = None) -> int:
     calibrated = calibration_cases(params)
     dem = pd.concat([dem_rows(f, mu_s, "calibration" if f.parent.name in calibrated else "held_out") for f in args.fields],
                     ignore_index=True)
-    models = pd.concat([model_rows(f, mu_s, d) for f in args.models] or [pd.DataFrame(columns=MODEL_COLUMNS)],
+    scale, pairs = replica_error_scale(dem)
+    dem["slope_err"] = dem.slope_err * scale
+    dem["xi_err"] = np.where(dem.slope > 0, dem.slope_err / dem.slope**2, np.inf)
+    dem = dem[COLUMNS]
+    fields = {(f.parent.name, f.stem): f for f in args.fields}
+    models = pd.concat([model_rows(f, dem, mu_s, d, fields) for f in args.models] or [pd.DataFrame(columns=MODEL_COLUMNS)],
                        ignore_index=True)
-    fits = fits_table(dem, models, mu_s, d).assign(mu_s=mu_s)
+    fits = fits_table(dem, models, mu_s, d).assign(mu_s=mu_s, slope_error_scale=scale, slope_error_scale_pairs=pairs)
     meta = provenance(load_config(args.config))
     atomic.write_csv(dem, args.out)
     atomic.write_csv(models, args.out.with_name("decay_length_models.csv"))
     atomic.write_csv(fits, args.out.with_name("decay_length_fit.csv"))
     atomic.write_text(json.dumps({"mu_s": mu_s, "window_over_d": WINDOW_OVER_D, "creep_fraction": CREEP_FRACTION,
+                                  "band_edge": BAND_EDGE, "slope_error_scale": scale, "slope_error_scale_pairs": pairs,
                                   "provenance": meta}, indent=1), args.out.with_name("decay_length.json"))
-    print(f"{len(dem)} DEM windows from {len(args.fields)} runs; fits:")
-    print(fits.to_string(index=False))
+    print(f"{len(dem)} DEM windows from {len(args.fields)} runs; slope errors scaled by {scale:.3g} "
+          f"(the replicas' verdict, {pairs} pairs); fits:")
+    with pd.option_context("display.width", 250, "display.max_columns", 30):
+        print(fits.to_string(index=False))
     return 0
