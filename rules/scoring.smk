@@ -20,6 +20,7 @@ rule scores:
         verdict=f"{ROOT}/validation/verdict.csv",
         differences=f"{ROOT}/validation/model_differences.csv",
         scene_needs=f"{ROOT}/validation/scene_needs.csv",
+        force_sweep=f"{ROOT}/validation/force_sweep.csv",
     log:
         f"{ROOT}/logs/scores.log",
     benchmark:
@@ -29,7 +30,7 @@ rule scores:
         "--model-draws {input.model_draws} {input.intruder_model_draws} "
         "--intruder-runs {input.intruder_runs} --intruder-models {input.intruder_models} --params {input.params} "
         "--out {output.scores} --verdict-out {output.verdict} --differences-out {output.differences} "
-        "--scene-needs-out {output.scene_needs} > {log} 2>&1"
+        "--scene-needs-out {output.scene_needs} --force-sweep-out {output.force_sweep} > {log} 2>&1"
 
 
 rule cost_accuracy:

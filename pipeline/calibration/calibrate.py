@@ -170,6 +170,11 @@ def calibrate(config: dict[str, Any], rheometer_files: list[Path], nonlocal_file
         "nonlocal": {},
     }
     if nonlocal_files:
+        params["normal_stresses"]["models_sigma_zz_over_p"] = planar_bed_ratio(nonlocal_files, states)
+    else:
+        params["normal_stresses"]["models_sigma_zz_over_p"] = params["normal_stresses"]["sigma_zz_over_p"] | {
+            "source": "rheometer (no planar calibration run)"}
+    if nonlocal_files:
         params["nonlocal"], params["nonlocal_fit_residuals"] = calibrate_nonlocal(params, nonlocal_files, settings)
     with open_fields(rheometer_files[0]) as first:
         d, rho_s = float(first.attrs["d"]), float(first.attrs["rho_s"])
@@ -177,6 +182,37 @@ def calibrate(config: dict[str, Any], rheometer_files: list[Path], nonlocal_file
     params["rho_s"] = rho_s
     params["provenance"] = provenance(config)
     return params
+
+
+def planar_bed_ratio(paths: list[Path], states: list[dict[str, Any]], margin_over_d: float = 1.0) -> dict[str, Any]:
+    """sigma_zz / p the models use: measured in the calibration case's bed itself, where the bed is
+    in the rheometer's range of inertial number (I at or above the slowest state's), at least
+    ``margin_over_d`` d of bed from both contact planes; the mean over the replicas, its error their
+    scatter over sqrt(n) (or the points' where there is one replica). In the default beds this is
+    the top 4-5 d, where sigma_zz / p is 1.04-1.10 against the rheometer bulk's 1.03 (the bed's
+    normal-stress differences near the moving wall are not the homogeneous shear's); deeper, in the
+    creep, it is 1.11-1.16, outside any calibrated state (docs/validation.md)."""
+    slowest = min(float(s["I"]) for s in states)
+    values, spreads, points = [], [], 0
+    for path in paths:
+        with open_fields(path) as ds:
+            d = float(ds.attrs["d"])
+            z = ds.z.values
+            inside = ((z >= float(ds.attrs["z_bottom_contact_plane"]) + margin_over_d * d)
+                      & (z <= float(ds.attrs["z_top_contact_plane"]) - margin_over_d * d) & (ds["I"].values >= slowest))
+            if inside.sum() < 2:
+                continue
+            ratio = ds["sigma_zz"].values[inside] / ds["p"].values[inside]
+            values.append(float(ratio.mean()))
+            spreads.append(float(ratio.std(ddof=1) / math.sqrt(inside.sum())))
+            points += int(inside.sum())
+    if not values:
+        raise CalibrationError(f"{', '.join(map(str, paths))}: no point of the calibration case's bed reaches the "
+                               f"rheometer's slowest inertial number {slowest:.3g}: no sigma_zz / p to give the models")
+    error = float(np.std(values, ddof=1) / math.sqrt(len(values))) if len(values) > 1 else spreads[0]
+    return _entry(float(np.mean(values)), error, "planar bed of " + ", ".join(f"{run_label(p)[0]}/{run_label(p)[1]}" for p in paths),
+                  f"where I >= {slowest:.3g} (the slowest rheometer state's), {points} points over {len(values)} replicas; "
+                  "the models' p is sigma_zz over it") | {"per_replica": values}
 
 
 def normal_stress_entries(states: list[dict[str, Any]]) -> dict[str, Any]:

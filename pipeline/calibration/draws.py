@@ -7,7 +7,7 @@ correlations are carried into the predictions:
 1. the local laws from the fits' covariances in ``params.json``: (mu_s, mu_2, I_0) of mu(I),
    (nu_c, a) of nu(I), the critical-state line (nu_ref, kappa, a) (with kappa at its floor, as the
    calibration set it when the DEM resolves no pressure dependence, nu_ref follows nu_c), sin_phi
-   = the drawn mu_s (the calibration's own definition), and sigma_zz / p from its error; draws
+   = the drawn mu_s (the calibration's own definition), and the models' sigma_zz / p from its error; draws
    outside the laws' domain (I_0 <= 0, mu_2 <= mu_s, kappa <= 0, nu_c outside (0, 1)) are drawn
    again and counted;
 2. each non-local parameter refitted on the calibration case's replica mean with the drawn local
@@ -62,7 +62,8 @@ def draw_local(params: dict[str, Any], rng: np.random.Generator) -> tuple[dict[s
     nominal = {name: e["value"] for name, e in params["local"].items()}
     critical = {name: e["value"] for name, e in params["critical_state"].items()}
     cov = params["covariance"]
-    ratio = params["normal_stresses"]["sigma_zz_over_p"]
+    stresses = params["normal_stresses"]
+    ratio = stresses.get("models_sigma_zz_over_p", stresses["sigma_zz_over_p"])
     for rejected in range(MAX_REJECTIONS):
         mu = _normal(rng, cov["mu_i"], nominal)
         nu = _normal(rng, cov["nu_i"], nominal)

@@ -42,6 +42,9 @@ from pipeline.common.planar_cell import planar_cell
 #: Points faster than this fraction of the wall speed are the shear band in the fit report.
 BAND_SPEED = 0.1
 
+#: Factor inside an edge of a model's admissible window of lengths where the window is cut.
+EDGE_MARGIN = 1.02
+
 #: The non-local models and the one parameter of each that the creep fixes.
 NONLOCAL_PARAMETER = {"ngf": "A", "cosserat": "l", "volume_averaged": "l"}
 
@@ -139,10 +142,12 @@ def admissible_interval(model: str, geometry: PlanarShear, make_params: Any, lo:
     low, high = float(lengths[best[0]]), float(lengths[best[1] - 1])
     # The window's edges between the samples, by bisection in log l: a fit that ends on an edge
     # then moves with the geometry and the local laws (the parameter draws), not with the sampling.
+    # A margin of EDGE_MARGIN inside an edge: the edge moves with the grid, and a length fitted onto it
+    # would not solve on the refined grid that measures the numerical uncertainty (u_num).
     if best[0] > 0:
-        low = _edge(model, geometry, make_params, good=low, bad=float(lengths[best[0] - 1]), n_grid=n_grid)
+        low = _edge(model, geometry, make_params, good=low, bad=float(lengths[best[0] - 1]), n_grid=n_grid) * EDGE_MARGIN
     if best[1] < samples:
-        high = _edge(model, geometry, make_params, good=high, bad=float(lengths[best[1]]), n_grid=n_grid)
+        high = _edge(model, geometry, make_params, good=high, bad=float(lengths[best[1]]), n_grid=n_grid) / EDGE_MARGIN
     return low, high
 
 

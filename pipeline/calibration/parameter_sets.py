@@ -94,7 +94,12 @@ def model_parameters(params: dict[str, Any], model: str) -> Any:
 
 
 def normal_stress_ratio(params: dict[str, Any]) -> float:
-    """sigma_zz / p of the calibration: the models' p is sigma_zz over it (continuum.geometry)."""
+    """sigma_zz / p the models use: their p is sigma_zz over it (continuum.geometry). Measured in the
+    calibration case's planar bed where it is in the rheometer's I range (``models_sigma_zz_over_p``),
+    or the rheometer bulk's in a params.json without it."""
+    stresses = params.get("normal_stresses", {})
+    if "models_sigma_zz_over_p" in stresses:
+        return float(stresses["models_sigma_zz_over_p"]["value"])
     try:
         return float(params["normal_stresses"]["sigma_zz_over_p"]["value"])
     except KeyError:
@@ -110,7 +115,8 @@ def params_of_draw(params: dict[str, Any], draw: dict[str, Any]) -> dict[str, An
     for section in ("local", "critical_state"):
         for name in out[section]:
             out[section][name]["value"] = float(draw["values"][name])
-    out["normal_stresses"]["sigma_zz_over_p"]["value"] = float(draw["sigma_zz_over_p"])
+    key = "models_sigma_zz_over_p" if "models_sigma_zz_over_p" in out["normal_stresses"] else "sigma_zz_over_p"
+    out["normal_stresses"][key]["value"] = float(draw["sigma_zz_over_p"])
     out["nonlocal"] = {model: {name: {"value": v} for name, v in entry.items()}
                        for model, entry in draw["nonlocal"].items() if entry is not None}
     return out

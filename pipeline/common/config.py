@@ -231,6 +231,9 @@ def run_ids(case_name: str, case: dict[str, Any]) -> list[str]:
         runs = [f"D{depth:g}-{rep}" for depth in depths for rep in replicas]
         if case.get("control", False):
             runs += [f"D{min(depths):g}-control-{rep}" for rep in replicas]
+        sweep = case.get("force_sweep")
+        if sweep:
+            runs += [f"D{float(sweep['depth']):g}-F{float(f):g}-{rep}" for f in sweep["forces"] for rep in replicas]
         return runs
     return replicas + size_study_runs(case)
 
@@ -364,15 +367,25 @@ def run_state(run: str) -> tuple[float, float]:
     return float(match.group(1)), float(match.group(2))
 
 
-_INTRUDER_RUN = re.compile(r"^D([0-9.eE+-]+)-(control-)?(r\d+)$")
+_INTRUDER_RUN = re.compile(r"^D([0-9.eE+-]+?)-(?:F([0-9.eE+-]+?)-)?(control-)?(r\d+)$")
 
 
 def intruder_run(run: str) -> tuple[float, bool, str]:
-    """Depth below the top wall (in d), control flag and replica of an intruder run id (``D6-control-r1``)."""
+    """Depth below the top wall (in d), control flag and replica of an intruder run id
+    (``D6-control-r1``, ``D7-F0.6-r2``)."""
     match = _INTRUDER_RUN.match(run)
     if match is None:
-        raise ValueError(f"run id {run!r} is not an intruder run id (expected 'D<depth in d>-[control-]r<k>')")
-    return float(match.group(1)), match.group(2) is not None, match.group(3)
+        raise ValueError(f"run id {run!r} is not an intruder run id (expected 'D<depth in d>-[F<push>-][control-]r<k>')")
+    return float(match.group(1)), match.group(3) is not None, match.group(4)
+
+
+def intruder_push(run: str) -> float | None:
+    """The push of a force-sweep run (``D7-F0.6-r1``: 0.6 of the yield force at its own depth), or
+    None for a depth-sweep run or a control (the case's ``force`` of the shallowest depth's yield force)."""
+    match = _INTRUDER_RUN.match(run)
+    if match is None:
+        raise ValueError(f"run id {run!r} is not an intruder run id")
+    return float(match.group(2)) if match.group(2) is not None else None
 
 
 def derived_seed(master_seed: int, *labels: str) -> int:

@@ -14,7 +14,7 @@ REPORT_FIGURES = ("decay_length", "profiles", "calibration", "pareto", "well_pos
 #: Category of each figure in Snakemake's report: the stage that made what it shows.
 REPORT_CATEGORIES = {"decay_length": "Validation", "profiles": "Scoring", "pareto": "Scoring", "calibration": "Calibration",
                      "well_posedness": "Stability", "mesh_convergence": "Stability", "wall_series": "DEM",
-                     "dem_convergence": "DEM", "intruder": "Intruder", "intruder_field": "Intruder", "verdict": "Validation"}
+                     "dem_convergence": "DEM", "intruder": "Intruder", "intruder_field": "Intruder", "intruder_force": "Intruder", "verdict": "Validation"}
 
 
 def root(config: dict[str, Any]) -> Path:
@@ -34,7 +34,9 @@ def shared_fill_paths(config: dict[str, Any]) -> list[str]:
 
 def report_figures(config: dict[str, Any]) -> list[str]:
     """Names of the figures the report writes for this config."""
+    sweep = any(config["cases"][c].get("force_sweep") for c in intruder_cases(config))
     return (list(REPORT_FIGURES) + (["intruder", "intruder_field"] if intruder_cases(config) else [])
+            + (["intruder_force"] if sweep else [])
             + (["dem_convergence"] if convergence_cases(config) else [])
             + (["verdict"] if validation_cases(config) else []))
 

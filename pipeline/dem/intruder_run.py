@@ -40,7 +40,7 @@ from pipeline.common import atomic
 from pipeline.dem import liggghts_render as render
 from pipeline.common.statistics import integrated_autocorrelation_time
 from pipeline.dem import precision
-from pipeline.common.config import intruder_run, mean_grain_volume
+from pipeline.common.config import intruder_push, intruder_run, mean_grain_volume
 from pipeline.dem.liggghts_log import DEMRunError
 from pipeline.dem.planar_run import PlanarShearRun
 
@@ -192,6 +192,7 @@ class IntruderRun(PlanarShearRun):
         # A control and its sheared twin share their fill (fill-D<depth>-r<k>) and so its seed:
         # one settled packing, walls and rod; the control differs by the wall at rest only.
         self.depth_over_d, self.control, _ = intruder_run(run_id)
+        self.push_fraction = intruder_push(run_id)
         d = self.mat["d"]
         self.rod_diameter = float(self.case["rod_diameter"]) * d
         self.rod_length = float(self.case["cell_y"]) * d
@@ -205,8 +206,18 @@ class IntruderRun(PlanarShearRun):
         p = hydrostatic_pressure(self.wall_pressure, self.mat["rho_s"], self.case["gravity"], shallowest)
         return float(self.case["yield_coefficient"]) * p * self.rod_diameter * self.rod_length
 
+    def yield_force_here(self) -> float:
+        """Yield force (N) of the rod at rest at its own depth (config ``yield_coefficient``)."""
+        d = self.mat["d"]
+        p = hydrostatic_pressure(self.wall_pressure, self.mat["rho_s"], self.case["gravity"], self.depth_over_d * d)
+        return float(self.case["yield_coefficient"]) * p * self.rod_diameter * self.rod_length
+
     def push_force(self) -> float:
-        """Total push on the rod along +x (N): the same for every depth and for the control."""
+        """Total push on the rod along +x (N): ``force`` x the shallowest depth's yield force, the same for
+        every depth of the depth sweep and for the control; a force-sweep run's own fraction of the yield
+        force at its own depth."""
+        if self.push_fraction is not None:
+            return self.push_fraction * self.yield_force_here()
         return float(self.case["force"]) * self.yield_force_estimate()
 
     # ------------------------------------------------------------------------- planar hooks
@@ -376,8 +387,14 @@ class IntruderRun(PlanarShearRun):
             "n_grains": rod["n_grains"],
             "grain_spacing": rod["spacing"],
             "force": self.push_force(),
-            "force_fraction": float(self.case["force"]),
+            "force_fraction": float(self.case["force"]) if self.push_fraction is None else self.push_fraction,
+            "force_sweep": self.push_fraction is not None,
+            # The push over the yield force at the rod's own depth (yield_coefficient p D L, p hydrostatic there).
+            "push_over_yield": self.push_force() / self.yield_force_here(),
+            # Below the top wall's grain centres, as the run id's depth (the fields' contact planes are 0.4 d lower).
+            "depth_below_top_over_d": depth / d,
             "yield_force_estimate": self.yield_force_estimate(),
+            "yield_force_here": self.yield_force_here(),
             "yield_coefficient": float(self.case["yield_coefficient"]),
             "yield_source": "config yield_coefficient * (P + nu rho_s g h_min) * D * L; coefficient measured with "
                             "pipeline.dem.intruder_run --probe-yield (top wall at rest, staircase of forces)",

@@ -62,11 +62,22 @@ def run_speed(model: str, parameters: Any, params: dict[str, Any], run: dict[str
 
 def predict(model: str, params: dict[str, Any], runs: list[dict[str, Any]], fields: list[xr.Dataset],
             cells_per_d: float = 4.0) -> xr.Dataset:
-    """The model's speed at each sheared run's depth (see module docstring)."""
+    """The model's speed at each sheared run's depth (see module docstring); the force sweep's
+    runs (``force_sweep`` in their run.json) on a coordinate of their own, ``push_over_yield``."""
     depths, speeds, seconds, grids, refused, bounded = [], [], [], [], [], []
+    pushes, push_speeds = [], []
     parameters = model_parameters(params, model)
     for run, ds in zip(runs, fields, strict=True):
         result, reason = run_speed(model, parameters, params, run, ds, cells_per_d)
+        if run["intruder"].get("force_sweep"):
+            # One entry per push (the first replica's run: the model sees the same geometry in each).
+            push = round(float(run["intruder"]["push_over_yield"]), 6)
+            if push not in pushes:
+                pushes.append(push)
+                push_speeds.append(result.speed if result is not None else np.nan)
+                if result is None:
+                    refused.append(f"push {push:g} of the yield force: {reason}")
+            continue
         if result is None:
             refused.append(reason)
             continue
@@ -85,6 +96,12 @@ def predict(model: str, params: dict[str, Any], runs: list[dict[str, Any]], fiel
                                     "the speed is an upper bound (continuum/intruder/ngf2d.py FLUIDITY_FLOOR)"})
     out["solve_seconds"] = ("depth_over_d", np.asarray(seconds, dtype=float)[order],
                             {"units": "s", "long_name": "solve time of the scene"})
+    if pushes:
+        by = np.argsort(pushes)
+        out = out.assign_coords(push_over_yield=("push_over_yield", np.asarray(pushes)[by],
+                                                 {"units": "1", "long_name": "the force sweep's push over the yield force at its depth"}))
+        out["sweep_speed"] = ("push_over_yield", np.asarray(push_speeds, dtype=float)[by],
+                              {"units": "m s-1", "long_name": "steady rod speed of the force sweep (NaN: refused)"})
     out.attrs.update({"model": model, "case": "intruder", "refused": json.dumps(refused),
                       "n_grid": int(max(grids)) if grids else 0,
                       "solve_seconds": float(np.sum(seconds)) if seconds else 0.0,
@@ -128,6 +145,10 @@ def predict_draws(model: str, params: dict[str, Any], ensemble: dict[str, Any], 
                              "run": ("run", labels, {"long_name": "sheared intruder run"})})
     out["depth_over_d"] = ("run", np.array([r["intruder"]["depth_over_d"] for r in runs], dtype=float),
                            {"units": "1", "long_name": "rod axis below the top wall, in d"})
+    out["push_over_yield"] = ("run", np.array([r["intruder"].get("push_over_yield", np.nan) for r in runs], dtype=float),
+                              {"units": "1", "long_name": "push over the yield force at the rod's depth"})
+    out["force_sweep"] = ("run", np.array([int(bool(r["intruder"].get("force_sweep"))) for r in runs], dtype=np.int8),
+                          {"units": "1", "long_name": "1 for a run of the force sweep"})
     out["speed"] = (("draw", "run"), speed, {"units": "m s-1", "long_name": "steady rod speed along +x, per draw"})
     out["refused"] = (("draw", "run"), refused, {"units": "1", "long_name": "1 where the model refused the depth"})
     out["speed_refined"] = ("run", refined, {"units": "m s-1", "long_name": "calibration's values, grid twice as fine"})

@@ -94,10 +94,19 @@ def solve_draws(model: str, case: str, params: dict[str, Any], ensemble: dict[st
     the calibration's values, on ``2 n_grid - 1`` nodes (``<name>_refined``: the nominal grid's nodes
     halved). A draw the model cannot be solved for (``solved`` = 0) keeps NaN and its reason in the
     ``failures`` attribute (JSON: draw -> reason)."""
-    refined = solve_on_case(model, case, params, fields, 2 * n_grid - 1)
-    names = [n for n, v in refined.data_vars.items() if v.dims == ("z",) and n != "z_model"]
+    nominal = solve_on_case(model, case, params, fields, n_grid)
+    try:
+        refined = solve_on_case(model, case, params, fields, 2 * n_grid - 1)
+        refined_failure = ""
+    except ModelRunError as exc:
+        # The grid's share of the uncertainty is then unknown: said in the file, not replaced.
+        refined, refined_failure = nominal.copy(deep=True), str(exc)[:300]
+        for name, var in refined.data_vars.items():
+            if np.issubdtype(var.dtype, np.floating):
+                refined[name] = var * np.nan
+    names = [n for n, v in nominal.data_vars.items() if v.dims == ("z",) and n != "z_model"]
     draws = ensemble["draws"]
-    data = {n: np.full((len(draws), refined.sizes["z"]), np.nan) for n in names}
+    data = {n: np.full((len(draws), nominal.sizes["z"]), np.nan) for n in names}
     solved = np.zeros(len(draws), dtype=np.int8)
     seconds = np.full(len(draws), np.nan)
     failures: dict[int, str] = {}
@@ -116,14 +125,15 @@ def solve_draws(model: str, case: str, params: dict[str, Any], ensemble: dict[st
         solved[k] = 1
         seconds[k] = float(sol.attrs["solve_seconds"])
     out = xr.Dataset(coords={"draw": ("draw", np.arange(len(draws)), {"units": "1", "long_name": "parameter draw"}),
-                             "z": refined.z})
+                             "z": nominal.z})
     for n in names:
         out[n] = (("draw", "z"), data[n], dict(refined[n].attrs))
-        out[f"{n}_refined"] = ("z", refined[n].values, dict(refined[n].attrs) | {
-            "long_name": f"{refined[n].attrs.get('long_name', n)}, calibration's values on the refined grid"})
+        out[f"{n}_refined"] = ("z", refined[n].values, dict(nominal[n].attrs) | {
+            "long_name": f"{nominal[n].attrs.get('long_name', n)}, calibration's values on the refined grid"})
     out["solved"] = ("draw", solved, {"units": "1", "long_name": "1 where the draw was solved"})
     out["solve_seconds"] = ("draw", seconds, {"units": "s", "long_name": "solve time of the draw"})
     out.attrs.update({"model": model, "case": case, "n_grid": n_grid, "n_grid_refined": 2 * n_grid - 1,
+                      "refined_failure": refined_failure,
                       "n_draws": len(draws), "n_solved": int(solved.sum()), "failures": json.dumps(failures),
                       "draws_seed": int(ensemble.get("seed", -1))})
     return out

@@ -15,7 +15,6 @@ import math
 from pathlib import Path
 from typing import Any
 
-import matplotlib.colors as mcolors
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
@@ -30,6 +29,7 @@ from pipeline.common.layout import (convergence_cases, convergence_paths, fields
                                     shared_fill_paths)
 from pipeline.dem.wall_series import read_wall_series
 from pipeline.report.creep_section import decay_length_section
+from pipeline.report.intruder_section import intruder_section
 from pipeline.report.scores_section import score_section
 from pipeline.report.style import MODEL_STYLE
 from pipeline.scoring.replicas import align_replicas
@@ -216,86 +216,6 @@ def profiles_section(root: Path, config: dict[str, Any], figures: Figures) -> st
 
 
 # ---------------------------------------------------------------------------------- intruder
-def intruder_section(root: Path, config: dict[str, Any], figures: Figures) -> str:
-    parts = ["<h2>Intruder: secondary rheology</h2>",
-             "<p class='note'>A rod along y (3 d across) pushed along +x by a constant force below its yield force, "
-             "held at its depth, in the creeping zone of shear with gravity. Control: the same push with the "
-             "top wall at rest. Arrested runs (speed within 2 standard errors of zero, or moved under 0.1 d) "
-             "are drawn at the bottom, not as speeds. Critical state predicts zero below its yield force; local "
-             "mu(I) predicts zero below the layer-sliding force and, above it, the speed of the layer the rod "
-             "slides (rod smeared over the cell); NGF is solved in 2D (hollow markers: upper bound set by the "
-             "fluidity floor); Cosserat is not solved in 2D (docs/intruder.md).</p>"]
-    for case in intruder_cases(config):
-        runs = [json.loads((root / "dem" / c / r / "run.json").read_text()) for c, r in dem_runs(config) if c == case]
-        fig, ax = plt.subplots(figsize=(6.5, 4.5))
-        rows = []
-        floor = None
-        moving = [r["intruder"]["speed"] for r in runs if not r["intruder"]["arrested"] and r["intruder"]["speed"] > 0]
-        floor = 0.1 * min(moving) if moving else 1e-9
-        for r in runs:
-            rod = r["intruder"]
-            label = "DEM control (wall at rest)" if rod["control"] else "DEM"
-            if rod["arrested"]:
-                ax.plot(rod["depth_over_d"], floor, "kv" if rod["control"] else "ko", mfc="none", label=label + ", arrested")
-            else:
-                ax.errorbar(rod["depth_over_d"], rod["speed"], yerr=2 * rod["speed_err"], fmt="ks", label=label)
-            rows.append({"run": r["run"], "depth / d": rod["depth_over_d"], "force (N)": rod["force"],
-                         "speed (m/s)": rod["speed"], "error": rod["speed_err"], "arrested": str(rod["arrested"])})
-        refused = []
-        for model in model_names(config):
-            path = root / "models" / case / f"{model}.nc"
-            if not path.exists():
-                continue
-            sol = xr.open_dataset(path)
-            color, ls = MODEL_STYLE.get(model, ("grey", "-"))
-            speeds = np.where(sol.speed.values > 0, sol.speed.values, floor)
-            if sol.sizes["depth_over_d"]:
-                ax.plot(sol.depth_over_d.values, speeds, color=color, ls=ls, marker="x", label=model)
-                if "speed_is_upper_bound" in sol and sol.speed_is_upper_bound.values.any():
-                    bound = sol.speed_is_upper_bound.values.astype(bool)
-                    ax.plot(sol.depth_over_d.values[bound], speeds[bound], "o", color=color, mfc="none", ms=9)
-            for reason in json.loads(sol.attrs.get("refused", "[]")):
-                refused.append({"model": model, "refused": reason})
-            sol.close()
-        ax.set_yscale("log")
-        ax.set_xlabel("rod depth below the top wall / d (-)")
-        ax.set_ylabel("rod speed (m/s), log axis (bottom: zero / arrested)")
-        handles, labels = ax.get_legend_handles_labels()
-        unique = dict(zip(labels, handles))
-        ax.legend(unique.values(), unique.keys(), fontsize=7)
-        parts.append(figures.add("intruder", fig, f"{case}: rod speed against depth, DEM (2 standard errors) and models."))
-        parts.append(rod_frame_figure(root, case, runs, figures))
-        parts.append(table_html(pd.DataFrame(rows)))
-        if refused:
-            parts.append(table_html(pd.DataFrame(refused)))
-    return "\n".join(parts)
-
-
-def rod_frame_figure(root: Path, case: str, runs: list[dict[str, Any]], figures: Figures) -> str:
-    """The DEM flow around the rod, in its frame: u_x minus the rod's speed, one panel per run."""
-    sheared = [r for r in runs if not r["intruder"]["control"]]
-    fig, axes = plt.subplots(1, len(sheared), figsize=(4.2 * len(sheared), 4.2), squeeze=False, sharey=True)
-    for ax, r in zip(axes[0], sheared):
-        ds = xr.open_dataset(root / "fields_xz" / case / f"{r['run']}.nc")
-        d, V = float(ds.attrs["d"]), float(ds.attrs["wall_speed"])
-        x = (ds.x.values - float(ds.attrs["rod_centre_x"])) / d
-        z = (ds.z.values - float(ds.attrs["z_bottom_wall"])) / d
-        # Where no flowing grains are (the rod) the velocity means nothing.
-        empty = ds.rho_body.values < 0.2 * float(np.nanmax(ds.rho_body.values))
-        rel = np.where(empty, np.nan, ds.u_x_rel.values / V)
-        # Symmetric log colours: the creep around the rod is 1e-4 to 1e-2 of V, the band above it ~1.
-        norm = mcolors.SymLogNorm(linthresh=1e-4, vmin=-1.0, vmax=1.0, base=10)
-        mesh = ax.pcolormesh(x, z, rel.T, cmap="RdBu_r", norm=norm, shading="nearest")
-        ax.set_title(f"{r['run']}: rod {r['intruder']['depth_over_d']:.1f} d below the top", fontsize=9)
-        ax.set_xlabel("x from the rod's centre / d (-)")
-        fig.colorbar(mesh, ax=ax, label="(u_x - U_rod) / V (-), symlog")
-        ds.close()
-    axes[0][0].set_ylabel("height above the bottom wall / d (-)")
-    return figures.add("intruder_field", fig, "DEM flow around the rod in its frame (x-z coarse-grained fields of "
-                       "fields_xz/, also as VTK): velocity along x minus the rod's mean speed, over the wall speed, "
-                       "on a symmetric log scale (linear within 1e-4); blank: the rod.")
-
-
 # ------------------------------------------------------------------------------- calibration
 def calibration_section(root: Path, figures: Figures) -> str:
     params = json.loads((root / "calibration" / "params.json").read_text())

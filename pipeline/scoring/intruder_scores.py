@@ -31,16 +31,21 @@ METRIC = "intruder_speed_log_err"
 def moving_rod_speeds(runs: list[dict]) -> dict[float, list[float]]:
     """Speeds (m/s) of the sheared rods that move (not arrested), by target depth (in d)."""
     by_depth: dict[float, list[float]] = {}
-    for r in runs:
+    for r in depth_sweep(runs):
         if not r["intruder"]["control"] and not r["intruder"]["arrested"]:
             by_depth.setdefault(round(r["intruder"]["depth_target_over_d"], 6), []).append(r["intruder"]["speed"])
     return by_depth
 
 
+def depth_sweep(runs: list[dict]) -> list[dict]:
+    """The runs of the depth sweep (the case's one push; not the force sweep's)."""
+    return [r for r in runs if not r["intruder"].get("force_sweep")]
+
+
 def moving_rod_errors(runs: list[dict]) -> dict[float, list[float]]:
     """Stated speed errors (m/s) of the same rods, in the same order."""
     by_depth: dict[float, list[float]] = {}
-    for r in runs:
+    for r in depth_sweep(runs):
         if not r["intruder"]["control"] and not r["intruder"]["arrested"]:
             by_depth.setdefault(round(r["intruder"]["depth_target_over_d"], 6), []).append(
                 float(r["intruder"].get("speed_err", math.nan)))
@@ -66,7 +71,7 @@ def _match(depths: np.ndarray, depth: float) -> int | None:
 def score_intruder(runs: list[dict], model_files: dict[str, Path], draw_files: dict[str, Path] | None = None,
                    settings: Any = None) -> tuple[list[dict[str, Any]], dict[tuple[str, str, str], ScoreSamples]]:
     """Rows (dicts of the scores.csv columns) and resamples of the intruder metric, one per model."""
-    sheared = [r for r in runs if not r["intruder"]["control"]]
+    sheared = [r for r in depth_sweep(runs) if not r["intruder"]["control"]]
     by_depth = moving_rod_speeds(runs)
     if not by_depth:
         raise MetricError("no intruder run moves: nothing to score")
@@ -98,7 +103,9 @@ def score_intruder(runs: list[dict], model_files: dict[str, Path], draw_files: d
         terms_draws, terms_refined = np.full((0, len(targets)), np.nan), np.full(len(targets), np.nan)
         if draw_files and model in draw_files:
             with xr.open_dataset(draw_files[model]) as ens:
-                run_depths = ens["depth_over_d"].values
+                # The force sweep's runs share a depth with the depth sweep's: matched out.
+                sweep = ens["force_sweep"].values.astype(bool) if "force_sweep" in ens else np.zeros(ens.sizes["run"], bool)
+                run_depths = np.where(sweep, np.nan, ens["depth_over_d"].values)
                 run_index = [_match(run_depths, float(np.mean(actual[t]))) for t in targets]
                 speeds = ens["speed"].values
                 terms_draws = np.array([[_log_term(float(speeds[k, j]), v) if j is not None else math.nan

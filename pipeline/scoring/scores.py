@@ -29,6 +29,7 @@ import xarray as xr
 from pipeline.common import atomic
 from pipeline.common.config import derived_seed, load_config
 from pipeline.scoring import metrics, verdict
+from pipeline.scoring.force_sweep import score_force_sweep
 from pipeline.scoring.intruder_scores import score_intruder
 from pipeline.scoring.metrics import MetricError, Profile
 from pipeline.scoring.replicas import (WALL_MARGIN_OVER_D, align_replicas, interior, mean_profile,  # noqa: F401 (re-exported)
@@ -239,6 +240,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--verdict-out", type=Path, help="validation/verdict.csv (with the next two)")
     parser.add_argument("--differences-out", type=Path, help="validation/model_differences.csv: every pair of models")
     parser.add_argument("--scene-needs-out", type=Path, help="validation/scene_needs.csv")
+    parser.add_argument("--force-sweep-out", type=Path, help="validation/force_sweep.csv: the rod's speed against its push")
     args = parser.parse_args(argv)
     config = load_config(args.config) if args.config else {}
     settings = ScoringSettings.from_config(config)
@@ -251,6 +253,15 @@ def main(argv: list[str] | None = None) -> int:
         rows, extra = score_intruder(runs, files, ens, settings)
         frames.append(pd.DataFrame(rows, columns=COLUMNS))
         samples |= extra
+        rows, extra, sweep = score_force_sweep(runs, files, ens, settings)
+        if rows:
+            frames.append(pd.DataFrame(rows, columns=COLUMNS))
+            samples |= extra
+        if args.force_sweep_out is not None:
+            atomic.write_csv(sweep, args.force_sweep_out)
+            print(sweep.to_string(index=False))
+    if args.force_sweep_out is not None and not args.force_sweep_out.exists():
+        atomic.write_csv(pd.DataFrame(columns=["push_over_yield", "source", "speed", "note"]), args.force_sweep_out)
     params = json.loads(args.params.read_text())
     for case in sorted({p.parent.name for p in args.models}):
         field_files = sorted(p for p in args.fields if p.parent.name == case)

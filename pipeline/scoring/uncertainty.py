@@ -147,8 +147,10 @@ class ScoreSamples:
 
     @property
     def u_num(self) -> float:
+        """``|S(refined) - S|``; NaN where the refined grid gave no score (its solve failed, or the
+        score is infinite): unknown, and shown so in scores.csv, not taken as zero there."""
         if not (math.isfinite(self.value) and math.isfinite(self.refined)):
-            return math.nan if not math.isfinite(self.value) else 0.0
+            return math.nan
         return abs(self.refined - self.value)
 
     @property
