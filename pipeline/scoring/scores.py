@@ -34,7 +34,8 @@ from pipeline.scoring.intruder_scores import score_intruder
 from pipeline.scoring.metrics import MetricError, Profile
 from pipeline.scoring.replicas import (WALL_MARGIN_OVER_D, align_replicas, interior, mean_profile,  # noqa: F401 (re-exported)
                                        replica_profiles, with_microscopic_fluidity)
-from pipeline.scoring.uncertainty import LOG_RESAMPLED, DemNoise, ScoreSamples, dem_noise_model, resample_profile
+from pipeline.scoring.uncertainty import (LOG_RESAMPLED, DemNoise, OffsetNoise, ScoreSamples, dem_noise_model, offset_noise,
+                                          offset_profiles, resample_profile)
 
 COLUMNS = ["case", "model", "metric", "value", "dem_noise", "n_grid", "solve_seconds", "role",
            "u_dem", "u_input", "u_num", "u_val", "dem_dof", "draws_solved", "draws_finite", "dem_noise_err",
@@ -157,16 +158,19 @@ def score_case(case: str, field_files: list[Path], model_files: dict[str, Path],
     table = metric_table(z, wall_speed)
     resampled: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray, DemNoise]] = {}
 
-    def dem_of(variable: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, DemNoise]:
+    def dem_of(variable: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, DemNoise, np.ndarray, OffsetNoise]:
         # One set of resamples per DEM variable, shared by every model (paired comparisons), from a
         # seed of its own so that adding a model or a metric leaves the others' numbers unchanged.
         if variable not in resampled:
             dem, err = mean_profile(reps, variable)
             noise = dem_noise_model(reps, variable)
+            log = variable in LOG_RESAMPLED
             rng = np.random.default_rng(derived_seed(settings.seed, "scoring", case, variable))
-            draws = resample_profile(dem[mask], err[mask], noise, settings.dem_resamples, rng,
-                                     log=variable in LOG_RESAMPLED)
-            resampled[variable] = (dem[mask], err[mask], draws, noise)
+            draws = resample_profile(dem[mask], err[mask], noise, settings.dem_resamples, rng, log=log)
+            offset = offset_noise(np.array([ds[variable].values[mask] for ds in reps]),
+                                  np.array([ds[f"{variable}_err"].values[mask] for ds in reps]), noise, log)
+            shifted = offset_profiles(dem[mask], err[mask], offset, len(reps), settings.dem_resamples, rng, log)
+            resampled[variable] = (dem[mask], err[mask], draws, noise, shifted, offset)
         return resampled[variable]
 
     for model, path in sorted(model_files.items()):
@@ -178,7 +182,7 @@ def score_case(case: str, field_files: list[Path], model_files: dict[str, Path],
             observed = DEM_VARIABLE.get(metric, variable)
             if variable not in sol or observed not in reps[0]:
                 continue  # the model does not predict this quantity (or the DEM does not measure it): no row
-            dem, err, dem_draws, noise = dem_of(observed)
+            dem, err, dem_draws, noise, shifted, offset = dem_of(observed)
             predicted = sol[variable].values[mask]
             value = _evaluate(fn, predicted, dem, err)
             if math.isnan(value):
@@ -192,7 +196,10 @@ def score_case(case: str, field_files: list[Path], model_files: dict[str, Path],
                 n_solved = int(solved.sum())
             else:
                 draws, refined, n_solved = np.array([]), math.nan, 0
-            one = ScoreSamples(value, dem_samples, draws, refined, noise.dof, points=[f"{int(mask.sum())} z points"])
+            offset_samples = (np.array([_evaluate(fn, predicted, d, err) for d in shifted]) if offset.variance > 0
+                              else np.array([]))
+            one = ScoreSamples(value, dem_samples, draws, refined, noise.dof, points=[f"{int(mask.sum())} z points"],
+                               dem_offset=offset_samples, offset_dof=offset.dof)
             pairs = pair_values(reps, observed, fn, mask)
             samples[(case, model, metric)] = one
             rows.append({

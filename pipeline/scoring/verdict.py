@@ -78,10 +78,13 @@ def _paired_sd(a: np.ndarray, b: np.ndarray) -> tuple[float, int]:
 
 def compare(a: ScoreSamples, b: ScoreSamples, confidence: float) -> PairDifference:
     """The paired difference ``a - b`` of two finite scores (module docstring)."""
-    u_dem, _ = _paired_sd(np.asarray(a.dem), np.asarray(b.dem))
+    u_param, _ = _paired_sd(np.asarray(a.dem), np.asarray(b.dem))
+    u_offset, _ = _paired_sd(np.asarray(a.dem_offset), np.asarray(b.dem_offset))
     u_input, n_draws = _paired_sd(np.asarray(a.draws), np.asarray(b.draws))
     u_num = math.hypot(a.u_num if math.isfinite(a.u_num) else 0.0, b.u_num if math.isfinite(b.u_num) else 0.0)
-    dof = welch_satterthwaite([(u_dem, min(a.dem_dof, b.dem_dof)), (u_input, float(n_draws - 1)), (u_num, math.inf)])
+    dof = welch_satterthwaite([(u_param, min(a.dem_dof, b.dem_dof)), (u_offset, min(a.offset_dof, b.offset_dof)),
+                               (u_input, float(n_draws - 1)), (u_num, math.inf)])
+    u_dem = math.sqrt(sum(x * x for x in (u_param, u_offset) if math.isfinite(x)))
     u = math.sqrt(sum(x * x for x in (u_dem, u_input, u_num) if math.isfinite(x)))
     k = coverage_factor(dof, confidence)
     d = a.value - b.value

@@ -9,8 +9,8 @@ import pytest
 import xarray as xr
 
 from pipeline.scoring import metrics
-from pipeline.scoring.uncertainty import (ScoreSamples, correlated_normal, dem_noise_model, resample_profile,
-                                          welch_satterthwaite)
+from pipeline.scoring.uncertainty import (ScoreSamples, correlated_normal, dem_noise_model, offset_noise,
+                                          offset_profiles, resample_profile, welch_satterthwaite)
 from pipeline.scoring.verdict import compare, judge_metric, scene_needs
 
 D = 0.002
@@ -24,6 +24,13 @@ S_THETA = 0.0015    # the calibration's uncertainty of each model's parameter
 SHAPE_A = np.ones(N_POINTS)
 SHAPE_B = 1.0 + 0.8 * np.cos(np.pi * (Z - Z[0]) / (Z[-1] - Z[0]))
 THETA_A = 0.01
+#: Model B's offset lies above the truth, like A's (+1), or below it (-1: then a whole-profile offset
+#: of the DEM moves the two scores apart instead of together).
+B_SIDE = {"sign": 1.0}
+
+
+def shape_b() -> np.ndarray:
+    return B_SIDE["sign"] * SHAPE_B
 DRAWS, RESAMPLES = 64, 200
 
 
@@ -31,25 +38,27 @@ def rmse(m: np.ndarray, dem: np.ndarray, err: np.ndarray) -> float:
     return metrics.rmse(m, dem)
 
 
-def replicas(rng: np.random.Generator) -> list[xr.Dataset]:
-    noise = SIGMA * correlated_normal(rng, REPLICAS, N_POINTS, TAU)
+def replicas(rng: np.random.Generator, offset_sd: float = 0.0) -> list[xr.Dataset]:
+    """Synthetic replicas: correlated pointwise noise of the stated errors, plus (``offset_sd``) a
+    whole-profile offset per replica that no stated error holds (a packing realisation)."""
+    noise = SIGMA * correlated_normal(rng, REPLICAS, N_POINTS, TAU) + offset_sd * rng.standard_normal((REPLICAS, 1))
     attrs = {"d": D, "z_bottom_wall": 0.0, "z_top_wall": 22 * D}
     return [xr.Dataset({"nu": ("z", TRUTH + e), "nu_err": ("z", np.full(N_POINTS, SIGMA))}, coords={"z": Z}, attrs=attrs)
             for e in noise]
 
 
-def nominal_difference(rng: np.random.Generator, theta_b: float) -> float:
+def nominal_difference(rng: np.random.Generator, theta_b: float, offset_sd: float = 0.0) -> float:
     """S_B - S_A of one rerun: new DEM replicas, a new calibration estimate of each parameter."""
-    dem = np.mean([ds.nu.values for ds in replicas(rng)], axis=0)
+    dem = np.mean([ds.nu.values for ds in replicas(rng, offset_sd)], axis=0)
     a = rng.normal(THETA_A, S_THETA)
     b = rng.normal(theta_b, S_THETA)
-    return rmse(TRUTH + b * SHAPE_B, dem, dem) - rmse(TRUTH + a * SHAPE_A, dem, dem)
+    return rmse(TRUTH + b * shape_b(), dem, dem) - rmse(TRUTH + a * SHAPE_A, dem, dem)
 
 
-def true_spread(theta_b: float) -> tuple[float, float]:
+def true_spread(theta_b: float, offset_sd: float = 0.0) -> tuple[float, float]:
     """Mean and standard deviation of S_B - S_A over independent reruns (the truth to test against)."""
     rng = np.random.default_rng(1)
-    d = np.array([nominal_difference(rng, theta_b) for _ in range(3000)])
+    d = np.array([nominal_difference(rng, theta_b, offset_sd) for _ in range(3000)])
     return float(d.mean()), float(d.std(ddof=1))
 
 
@@ -62,21 +71,25 @@ def theta_b_for(ratio: float) -> float:
     return theta_b
 
 
-def samples_of_one_rerun(rng: np.random.Generator, theta_b: float) -> dict[str, ScoreSamples]:
+def samples_of_one_rerun(rng: np.random.Generator, theta_b: float, offset_sd: float = 0.0) -> dict[str, ScoreSamples]:
     """What the workflow computes for the two models on one rerun."""
-    reps = replicas(rng)
+    reps = replicas(rng, offset_sd)
     dem = np.mean([ds.nu.values for ds in reps], axis=0)
     err = np.sqrt(np.sum([ds.nu_err.values**2 for ds in reps], axis=0)) / REPLICAS
     noise = dem_noise_model(reps, "nu")
     resampled = resample_profile(dem, err, noise, RESAMPLES, rng, log=False)
-    estimates = {"a": (rng.normal(THETA_A, S_THETA), SHAPE_A), "b": (rng.normal(theta_b, S_THETA), SHAPE_B)}
+    offset = offset_noise(np.array([ds.nu.values for ds in reps]), np.array([ds.nu_err.values for ds in reps]), noise, False)
+    shifted = offset_profiles(dem, err, offset, REPLICAS, RESAMPLES, rng, False)
+    estimates = {"a": (rng.normal(THETA_A, S_THETA), SHAPE_A), "b": (rng.normal(theta_b, S_THETA), shape_b())}
     draws = rng.standard_normal((DRAWS, 2)) * S_THETA
     out = {}
     for j, (name, (theta, shape)) in enumerate(estimates.items()):
         model = TRUTH + theta * shape
         out[name] = ScoreSamples(rmse(model, dem, err), np.array([rmse(model, r, err) for r in resampled]),
                                  np.array([rmse(TRUTH + (theta + draws[k, j]) * shape, dem, err) for k in range(DRAWS)]),
-                                 rmse(model, dem, err), noise.dof, points=[f"{N_POINTS} z points"])
+                                 rmse(model, dem, err), noise.dof, points=[f"{N_POINTS} z points"],
+                                 dem_offset=(np.array([rmse(model, r, err) for r in shifted]) if offset.variance > 0
+                                             else np.array([])), offset_dof=offset.dof)
     return out
 
 
@@ -101,6 +114,21 @@ def test_the_stated_uncertainty_of_a_difference_matches_its_spread_over_reruns(r
     _, spread = true_spread(theta_b)
     stated = [compare(s["b"], s["a"], 0.95).u for s in (samples_of_one_rerun(rng, theta_b) for _ in range(40))]
     assert np.mean(stated) == pytest.approx(spread, rel=0.15)
+
+
+def test_a_whole_profile_offset_between_replicas_is_carried(rng, monkeypatch) -> None:
+    """Replicas that differ by a whole-profile offset the stated errors do not hold, and two models
+    on either side of the truth (so the offset moves their scores apart): the stated uncertainty of
+    their difference, which then takes the offset from the replicas, still matches the spread over
+    reruns (to 30 %: with 3 replicas the offset's variance has 2 degrees of freedom)."""
+    monkeypatch.setitem(B_SIDE, "sign", -1.0)
+    offset_sd = 0.004
+    theta_b = theta_b_for(1.0)
+    _, spread = true_spread(theta_b, offset_sd)
+    stated = [compare(s["b"], s["a"], 0.95).u for s in (samples_of_one_rerun(rng, theta_b, offset_sd) for _ in range(60))]
+    _, without = true_spread(theta_b)
+    assert spread > 1.3 * without  # the offset matters for this pair
+    assert np.sqrt(np.mean(np.square(stated))) == pytest.approx(spread, rel=0.3)
 
 
 def test_welch_satterthwaite_limits() -> None:
