@@ -70,7 +70,7 @@ class CreepSpeed:
 
     Attributes:
         speed: mean speed along +x (m/s): the displacement over the window over its duration.
-        speed_err: standard error of ``speed`` (m/s), at the time scale of the rod's bursts
+        speed_err: standard error of ``speed`` (m/s), from blocks longer than the rod's bursts
             (:func:`creep_speed`).
         displacement: x(end) - x(start) over the window (m).
         duration: window length (s).
@@ -79,7 +79,8 @@ class CreepSpeed:
             speed): a rule on the speed alone, so a slow rod resolved over a short window counts
             as moving (a rule on the displacement over the window made the verdict depend on the
             window's length).
-        block_err, autocorrelation_err: the two estimates ``speed_err`` is the larger of (m/s).
+        block_err, autocorrelation_err: the block error (``speed_err``) and, for the record, the
+            autocorrelation-time estimate (m/s).
         correlation_samples: the integrated autocorrelation time of the rod's velocity, in samples.
     """
 
@@ -102,13 +103,16 @@ def creep_speed(time: np.ndarray, x: np.ndarray, n_blocks: int = SPEED_BLOCKS, r
     ``rest_speed`` (m/s, >= 0): a speed at or below which the rod is at rest whatever its error.
 
     The speed is the displacement over the window over its duration (the mean of block slopes,
-    used before, weighs a burst by where it falls in its block: on the default run's rods it was
-    up to 0.7 of the displacement speed). The rod creeps in bursts, so its velocity is correlated
-    over a burst: the error is the larger of the batch-means error of the displacement speeds of
-    ``n_blocks`` consecutive blocks and ``sd(v) sqrt(2 tau / n)``, with ``v`` the velocity between
-    consecutive samples and ``tau`` its integrated autocorrelation time (Sokal's window). On the
-    default run's rods the second was 2-8 times the first, which had understated the replicas'
-    scatter 5-7 times.
+    used before, weighs a burst by where it falls in its block: on the 2026-12-02 default run's rods
+    it was 0.67-1.07 of the displacement speed). The error is the batch-means error of the
+    displacement speeds of ``n_blocks`` consecutive blocks. The rod creeps in bursts: its velocity is
+    correlated over 5-20 samples and anti-correlated beyond (it rattles back), so the variance of its
+    displacement over a lag L, over L, peaks at L ~ 16-64 samples and falls 2-10 fold by 256; blocks
+    of 200-500 samples (8 per production of 4-8 chunks) are past that peak, and their scatter is
+    the error at the bursts' time scale. (The autocorrelation-time estimate ``sd(v) sqrt(2 tau / n)``,
+    recorded as ``autocorrelation_err``, is 2-8 times larger: Sokal's window stops before the
+    anti-correlated tail.) What no time average holds is the rod's frozen neighbourhood: replicas of
+    one depth differ by more (docs/dem.md); the scores take the DEM's uncertainty from them.
     """
     time = np.asarray(time, dtype=float)
     x = np.asarray(x, dtype=float)
@@ -123,11 +127,10 @@ def creep_speed(time: np.ndarray, x: np.ndarray, n_blocks: int = SPEED_BLOCKS, r
     step = np.diff(time)
     # Chunks' series meet at a shared sample: a zero time step there is no velocity sample.
     velocity = np.diff(x)[step > 0] / step[step > 0]
-    tau = float(integrated_autocorrelation_time(velocity[:, None])[0])
+    tau = float(integrated_autocorrelation_time(velocity[:, None])[0]) if velocity.size > 8 else math.nan
     auto_err = float(velocity.std(ddof=1) * math.sqrt(2.0 * tau / velocity.size)) if math.isfinite(tau) else math.nan
-    err = float(np.nanmax([block_err, auto_err]))
-    arrested = is_arrested(speed, err, rest_speed)
-    return CreepSpeed(speed, err, displacement, duration, bool(arrested), block_err, auto_err, tau)
+    arrested = is_arrested(speed, block_err, rest_speed)
+    return CreepSpeed(speed, block_err, displacement, duration, bool(arrested), block_err, auto_err, tau)
 
 
 def is_arrested(speed: float, speed_err: float, rest_speed: float) -> bool:

@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from pipeline.common.config import dem_runs, intruder_run, load_config
+from pipeline.common.config import dem_runs, intruder_push, intruder_run, load_config
 from pipeline.dumps.reader import read_particles
 from pipeline.dem.intruder_run import CreepSpeed, creep_speed, rod_speed_settled, unwrap
 
@@ -106,13 +106,20 @@ def test_unwrap_undoes_periodic_wrapping() -> None:
 def test_configs_enumerate_depths_and_a_control(name: str) -> None:
     config = load_config(REPO / name)
     case = config["cases"]["intruder"]
-    runs = [run for c, run in dem_runs(config) if c == "intruder"]
+    every = [run for c, run in dem_runs(config) if c == "intruder"]
+    runs = [run for run in every if intruder_push(run) is None]
     depths = sorted({intruder_run(run)[0] for run in runs})
     assert depths == sorted(case["depths_below_top"])
     controls = [run for run in runs if intruder_run(run)[1]]
     assert controls == [f"D{min(depths):g}-control-r{k + 1}" for k in range(case["replicas"])]
+    # The force sweep: every push of the config at its depth, once per replica, none a control.
+    sweep = [run for run in every if intruder_push(run) is not None]
+    assert sorted({intruder_push(run) for run in sweep}) == sorted(case["force_sweep"]["forces"])
+    assert {intruder_run(run)[0] for run in sweep} == {case["force_sweep"]["depth"]}
+    assert len(sweep) == len(case["force_sweep"]["forces"]) * case["replicas"]
+    assert not any(intruder_run(run)[1] for run in sweep)
     if name.endswith("ci.yaml"):
-        assert len(runs) <= 3
+        assert len(every) <= 5
 
 
 # ------------------------------------------------------------------------------ real LIGGGHTS
