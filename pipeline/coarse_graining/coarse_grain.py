@@ -181,6 +181,50 @@ def check_contacts_match(particles: Dump, contacts: Dump, chosen: np.ndarray) ->
                 f"{absent[:5].astype(np.int64).tolist()} absent from the particle dump "
                 f"({', '.join(particles.sources)}): the contact dump is not of this run"
             )
+    check_contact_positions(particles, contacts, chosen, where)
+
+
+#: Fraction of a snapshot's checked contacts whose first grain may sit elsewhere than the particle
+#: dump says (a grain that moved between the two dumps' writes), and how far (in grain radii).
+POSITION_MISMATCH_FRACTION = 0.05
+POSITION_TOLERANCE_OVER_RADIUS = 0.05
+
+
+def check_contact_positions(particles: Dump, contacts: Dump, chosen: np.ndarray, where: np.ndarray,
+                            sample: int = 200) -> None:
+    """Ids alone do not prove that a contact dump is of the particle dump's run (another replica of
+    the same case has the same ids): at the same timestep the first grain of each contact must sit
+    where the particle dump puts that grain (to a twentieth of its radius, periodic images along x
+    and y allowed). Checked on up to ``sample`` contacts of the first, middle and last chosen
+    snapshot; more than 5 % misplaced refuses the pairing, naming both files."""
+    if not all(c in contacts.columns for c in ("x1", "y1", "z1", "id1")):
+        return
+    picks = sorted({0, len(chosen) // 2, len(chosen) - 1}) if len(chosen) else []
+    i_id, i_r = particles.index("id"), particles.index("radius")
+    i_x = [particles.index(a) for a in "xyz"]
+    j_x = [contacts.index(a) for a in ("x1", "y1", "z1")]
+    for k in picks:
+        s, c = int(chosen[k]), int(where[k])
+        grains = particles.rows(s)
+        rows = contacts.rows(c)[:sample]
+        if rows.shape[0] == 0:
+            continue
+        order = np.argsort(grains[:, i_id])
+        found = np.searchsorted(grains[order, i_id], rows[:, contacts.index("id1")])
+        found = order[np.clip(found, 0, order.size - 1)]
+        delta = rows[:, j_x] - grains[found][:, i_x]
+        box = particles.boxes[s]
+        for axis in (0, 1):  # periodic images along x and y
+            length = box[axis, 1] - box[axis, 0]
+            delta[:, axis] -= length * np.round(delta[:, axis] / length)
+        distance = np.sqrt(np.sum(delta**2, axis=1))
+        misplaced = distance > POSITION_TOLERANCE_OVER_RADIUS * grains[found, i_r]
+        if misplaced.mean() > POSITION_MISMATCH_FRACTION:
+            raise CoarseGrainError(
+                f"{', '.join(contacts.sources)}: at step {int(contacts.timesteps[c])} the first grain of "
+                f"{int(misplaced.sum())} of {misplaced.size} contacts sits elsewhere than in the particle dump "
+                f"({', '.join(particles.sources)}; median distance {float(np.median(distance[misplaced])):.3g} m): "
+                "the contact dump is not of this run (another replica?)")
 
 
 def _rows(dump: Dump, snaps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -752,6 +796,8 @@ def _parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
+    # Every output of this step, the side file too, from this invocation only.
+    atomic.clear_stale(args.out.with_suffix(".vts"))
     try:
         particles = read_particles(args.particle_dump, rho_s=args.rho_s, diameter=args.diameter)
         names = None
@@ -790,9 +836,10 @@ def main(argv: list[str] | None = None) -> int:
     ds = result.dataset
     ds.attrs["particle_dumps"] = " ".join(str(p) for p in args.particle_dump)
     ds.attrs["contact_dumps"] = " ".join(str(p) for p in args.contacts or [])
-    write_netcdf(ds, args.out)
+    # The side file first: the main file, written last, says the step finished.
     if args.plane:
         print(f"{write_fields_vtk(ds, args.out.with_suffix('.vts'))}: the x-z fields for ParaView")
+    write_netcdf(ds, args.out)
     print(f"{args.out}: {ds.attrs['number_of_snapshots']} snapshots, grid {dict(ds.sizes)}, "
           f"{result.seconds:.2f} s")
     return 0

@@ -38,6 +38,7 @@ from pipeline.dumps.reader import Dump, DumpError, shift_periodic_x
 from pipeline.coarse_graining.displacement import displacement_structural_error, displacement_velocity
 from pipeline.coarse_graining.kernels import Kernel
 from pipeline.coarse_graining.vtk import write_fields_vtk, write_particles_vtu
+from pipeline.common import atomic
 from pipeline.common.formats import FIELDS_FORMAT_VERSION
 from pipeline.common.provenance import provenance_attrs
 from pipeline.common.statistics import integrated_autocorrelation_time
@@ -322,6 +323,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     from pipeline.common.config import load_config
 
+    atomic.clear_stale(args.out.with_suffix(".vts"))
     try:
         config = load_config(args.config)
         run = read_run_json(args.run_dir)
@@ -330,9 +332,9 @@ def main(argv: list[str] | None = None) -> int:
     except (DumpError, CoarseGrainError, ValueError, KeyError) as err:
         print(f"error: {args.run_dir}: {err}", file=sys.stderr)
         return 1
-    write_netcdf(result.dataset, args.out)
     if plane:
         write_fields_vtk(result.dataset, args.out.with_suffix(".vts"))
+    write_netcdf(result.dataset, args.out)
     if args.particles_vtk is not None:
         particles, _ = load_tables(args.run_dir, run)
         collection = write_particles_vtu(particles, steady_snapshots(particles, run), args.particles_vtk,

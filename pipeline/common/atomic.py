@@ -48,3 +48,11 @@ def write_text(text: str, path: Path) -> None:
 def write_json(data: dict[str, Any], path: Path) -> None:
     """``data`` as indented JSON (numpy scalars as floats), atomically."""
     write_text(json.dumps(data, indent=1, default=float), path)
+
+
+def clear_stale(*paths: Path) -> None:
+    """Remove a step's outputs from an earlier invocation before it starts, so that a step killed
+    before it writes them leaves nothing that looks complete beside its main file (a ``.vts`` of
+    another run beside a new ``.nc``)."""
+    for path in paths:
+        Path(path).unlink(missing_ok=True)

@@ -70,6 +70,13 @@ def _check_consistency(config: dict[str, Any], source: str) -> None:
                 f"bed's weight) exceeds material.design_pressure ({mat['design_pressure']} Pa): its "
                 f"overlaps would exceed material.design_overlap; raise design_pressure"
             )
+    for name, case in config["cases"].items():
+        runs = run_ids(name, case)
+        repeated = sorted({r for r in runs if runs.count(r) > 1})
+        if repeated:
+            keys = "inertial_numbers / extra_states" if name == RHEOMETER else "depths_below_top / force_sweep"
+            raise ConfigError(f"{source}: cases.{name}: {keys} name the state of run {repeated[0]} twice "
+                              f"({len(repeated)} repeated run id(s)): each state once")
     # A config without a calibration section (a DEM run's own, see dem_config) calibrates
     # nothing: the calibration set is checked where it is named.
     if "calibration" in config:

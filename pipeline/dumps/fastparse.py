@@ -95,7 +95,8 @@ int parse_block(const char *buf, int64_t len, int64_t nrows, int64_t ncols, doub
             while (p < end && !is_space(*p) && *p != '\n') p++;
             double v;
             if (parse_token(t, p, &v)) { *err_row = r; *err_col = c; return 1; }
-            if (!isfinite(v)) { *err_row = r; *err_col = c; return 2; }
+            /* nan and inf are kept: whether they matter depends on the column (reader.py checks the
+               columns the coarse-graining reads). */
             out[r * ncols + c] = v;
         }
         while (p < end && is_space(*p)) p++;
@@ -227,19 +228,17 @@ def _parse_block_pandas(buf: bytes | mmap.mmap, start: int, stop: int, nrows: in
         frame = pd.read_csv(io.BytesIO(b"\n".join(body)), sep=r"\s+", header=None, dtype=np.float64,
                             engine="c", na_filter=False)
     except ValueError:
+        # A token pandas' C parser will not take: a bad number (named), or nan / inf (kept).
+        rows = []
         for r, line in enumerate(body):
+            values = []
             for c, word in enumerate(line.split()):
                 try:
-                    value = float(word)
+                    values.append(float(word))
                 except ValueError:
                     raise BlockError(1, r, c) from None
-                if not np.isfinite(value):
-                    raise BlockError(2, r, c)
-        raise
+            rows.append(values)
+        frame = pd.DataFrame(rows, dtype=np.float64)
     out = frame.to_numpy(dtype=np.float64)
-    bad = ~np.isfinite(out)
-    if bad.any():
-        r, c = np.argwhere(bad)[0]
-        raise BlockError(2, int(r), int(c))
     consumed = sum(len(line) + 1 for line in body)
     return out, min(start + consumed, stop)

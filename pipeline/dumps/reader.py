@@ -56,6 +56,8 @@ _GENERIC = re.compile(r"^[cfv]_[A-Za-z0-9_]+\[(\d+)\]$")
 
 
 GZIP_MAGIC = b"\x1f\x8b"
+#: Lines of a snapshot's header in a LAMMPS text dump (timestep, count, box bounds, column names).
+SNAPSHOT_HEADER_LINES = 9
 
 
 class DumpError(ValueError):
@@ -324,6 +326,35 @@ def _rename(dump: Dump, names: tuple[str, ...]) -> Dump:
     return Dump(dump.kind, names, dump.timesteps, dump.boxes, dump.boundary, dump.offsets, dump.data, dump.sources)
 
 
+def check_finite(dump: Dump, columns: Sequence[str]) -> None:
+    """Refuse a nan or inf in a column the coarse-graining reads, naming the file, the step, the
+    row of the snapshot and the column; other columns may hold anything (an extra per-atom column
+    nothing here computes from is no reason to refuse a dump)."""
+    present = [c for c in columns if c in dump.columns]
+    if not present or dump.data.size == 0:
+        return
+    idx = [dump.columns.index(c) for c in present]
+    bad = ~np.isfinite(dump.data[:, idx])
+    if not bad.any():
+        return
+    row, col = (int(v) for v in np.argwhere(bad)[0])
+    snapshot = int(np.searchsorted(dump.offsets, row, side="right") - 1)
+    value = f"non-finite value {dump.data[row, idx[col]]} in column {present[col]}, which the coarse-graining reads"
+    if len(dump.sources) == 1:
+        # One file: each snapshot is 9 header lines and its rows, so the line is known.
+        line = SNAPSHOT_HEADER_LINES * (snapshot + 1) + row + 1
+        raise DumpError(f"{dump.sources[0]}:{line}: {value}")
+    raise DumpError(f"{', '.join(dump.sources)}: step {int(dump.timesteps[snapshot])}, row "
+                    f"{row - int(dump.offsets[snapshot]) + 1} of the snapshot: {value}")
+
+
+def check_not_empty(dump: Dump, what: str) -> None:
+    """Refuse a dump whose snapshots hold no rows (no grains, or no contacts), naming the files."""
+    if dump.data.shape[0] == 0:
+        raise DumpError(f"{', '.join(dump.sources)}: {len(dump)} snapshot(s) and not one {what} in any: nothing to "
+                        "coarse-grain")
+
+
 def _require(dump: Dump, required: Sequence[str], hint: str) -> None:
     missing = [c for c in required if c not in dump.columns]
     if missing:
@@ -379,6 +410,8 @@ def particle_view(dump: Dump, rho_s: float | None = None, diameter: float | None
                        dump.sources), tuple(names))
     _require(out, PARTICLE_REQUIRED, "a particle dump needs x y z vx vy vz radius mass (without mass: give "
              "the grain density, --rho-s; without radius or diameter: the grain diameter, --diameter)")
+    check_not_empty(out, "grain")
+    check_finite(out, (*PARTICLE_REQUIRED, "id", "type"))
     return out
 
 
@@ -440,6 +473,7 @@ def contact_view(dump: Dump, names: Sequence[str] | Mapping[str, str] | None = N
             out.append(CONTACT_SYNONYMS.get(header.lower(), header.lower() if header.lower() in CONTACT_COLUMNS else header))
     view = _rename(dump, tuple(out))
     _require(view, CONTACT_REQUIRED, "pass the column mapping of generic c_ID[k] names (contact_columns)")
+    check_finite(view, (*CONTACT_REQUIRED, "id1", "id2", "periodic", "delta", "cx", "cy", "cz"))
     return view
 
 

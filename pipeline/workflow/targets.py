@@ -15,16 +15,48 @@ from pipeline.common.config import (RHEOMETER, ConfigError, calibration_runs, de
 from pipeline.common.layout import fields_paths, root
 
 
+def user_error(message: str) -> None:
+    """End the workflow with one line and exit status 1: raised in the Snakefile or an input
+    function, any exception (SystemExit too) reaches the user wrapped in Snakemake's stack frames."""
+    # The process's own stderr: while the DAG is built Snakemake may have replaced sys.stderr.
+    print(f"error: {message}", file=sys.__stderr__, flush=True)
+    os._exit(1)
+
+
 def checked(config: dict[str, Any], configfiles: Any = ()) -> dict[str, Any]:
-    """The Snakemake config, validated (schema plus cross-key checks). A user error ends the
-    workflow here with the message alone (naming the config file and key), exit status 1:
-    Snakemake would wrap it in its own stack frames."""
+    """The Snakemake config, validated (schema plus cross-key checks) and its output root usable. A
+    user error ends the workflow here with the message alone (naming the config file and key)."""
     source = ", ".join(str(f) for f in configfiles) or "workflow config"
     try:
-        return validate_config(config, source)
+        validate_config(config, source)
     except ConfigError as exc:
-        print(f"error: {exc}", file=sys.stderr, flush=True)
-        os._exit(1)  # not SystemExit: Snakemake reports that with a traceback too
+        user_error(str(exc))
+    check_output_root(config, source)
+    return config
+
+
+def check_output_root(config: dict[str, Any], source: str) -> None:
+    """``output_root`` must be a folder that exists or can be made, and that can be written to."""
+    out = root(config)
+    if out.exists() and not out.is_dir():
+        user_error(f"{source}: output_root = {out}: an existing file, not a folder")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        user_error(f"{source}: output_root = {out}: cannot be created ({exc.strerror or exc})")
+    if not os.access(out, os.W_OK | os.X_OK):
+        user_error(f"{source}: output_root = {out}: not writable")
+
+
+def known_run(config: dict[str, Any], case: str, run: str) -> None:
+    """A target's DEM run must be one of the config's: name it and the case's runs otherwise."""
+    if (case, run) in dem_runs(config):
+        return
+    if case not in config["cases"]:
+        user_error(f"target run {case}/{run}: the config has no case {case!r} (cases: {', '.join(config['cases'])})")
+    runs = [r for c, r in dem_runs(config) if c == case]
+    shown = ", ".join(runs[:12]) + (f" and {len(runs) - 12} more" if len(runs) > 12 else "")
+    user_error(f"target run {case}/{run}: not a run of this config (runs of {case}: {shown})")
 
 
 def _convergence_runs(config: dict[str, Any], case: str) -> list[str]:
@@ -66,6 +98,8 @@ def effective_config_file(config: dict[str, Any], dem_run: tuple[str, str] | Non
     changing a model setting, another case or another rheometer state does not rerun it.
     Returns its path.
     """
+    if dem_run is not None:
+        known_run(config, *dem_run)
     name = f"config.dem.{dem_run[0]}.{dem_run[1]}.json" if dem_run else "config.effective.json"
     path = root(config) / name
     text = json.dumps(run_config(config, *dem_run) if dem_run else config, indent=1, sort_keys=True)
@@ -80,11 +114,18 @@ def effective_config_file(config: dict[str, Any], dem_run: tuple[str, str] | Non
 def shared_fill_config_file(config: dict[str, Any], case: str, fill: str) -> str:
     """The per-run config a shared fill reads: its replica's first state's (the fill depends on
     none of a state's own settings, :func:`pipeline.common.config.fill_physics`)."""
-    return effective_config_file(config, dem_run=(case, fill_owner_run(case, config["cases"][case], fill)))
+    if case not in config["cases"]:
+        user_error(f"target fill {case}/{fill}: the config has no case {case!r} (cases: {', '.join(config['cases'])})")
+    try:
+        owner = fill_owner_run(case, config["cases"][case], fill)
+    except ValueError as exc:
+        user_error(f"target fill {case}/{fill}: {exc}")
+    return effective_config_file(config, dem_run=(case, owner))
 
 
 def shared_fill_record(wildcards: Any, config: dict[str, Any]) -> list[str]:
     """Input function body: ``fill.json`` of the shared fill a DEM run starts from, if any."""
+    known_run(config, wildcards.case, wildcards.run)
     fill = shared_fill_of(wildcards.case, config["cases"][wildcards.case], wildcards.run)
     return [str(root(config) / "dem" / wildcards.case / fill / "fill.json")] if fill else []
 
@@ -96,6 +137,7 @@ def fill_from_option(wildcards: Any, input: Any) -> str:  # noqa: A002 (Snakemak
 
 def predecessor_record(wildcards: Any, config: dict[str, Any]) -> list[str]:
     """Input function body: ``run.json`` of the slower state a rheometer state continues from, if any."""
+    known_run(config, wildcards.case, wildcards.run)
     previous = predecessor_state(wildcards.case, config["cases"][wildcards.case], wildcards.run)
     return [str(root(config) / "dem" / wildcards.case / previous / "run.json")] if previous else []
 
