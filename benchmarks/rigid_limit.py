@@ -37,6 +37,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import yaml
+from scipy import stats
 
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
@@ -92,13 +93,50 @@ def run_setting(config: dict, work: Path, cores: int) -> None:
         raise SystemExit(f"rigid_limit: the workflow failed for {config['output_root']} (see {log})")
 
 
-def run_quantities(root: Path) -> pd.DataFrame:
-    """One row per run and quantity: value, its stated error, and the run's cost and extremes."""
+def settled_fields(root: Path, case: str, run: str, settle_strain: float) -> Path:
+    """The run's fields averaged after its first ``settle_strain`` strain units of production
+    (a copy of the run folder whose run.json's window starts that much later; the dumps linked)."""
+    import shutil
+    import tempfile
+
+    from pipeline.coarse_graining.fields import run_fields
+    from pipeline.common.atomic import write_netcdf
+
+    source = root / "dem" / case / run
+    record = json.loads((source / "run.json").read_text())
+    t0, t1 = record["steady_state_window"]
+    start = t0 + settle_strain * float(record["settled_gap"]) / float(record["wall_speed"])
+    out = root / "settled_fields" / case / f"{run}.nc"
+    if out.exists():
+        return out
+    with tempfile.TemporaryDirectory() as tmp:
+        copy = Path(tmp) / run
+        copy.mkdir()
+        for item in source.iterdir():
+            if item.name != "run.json":
+                (copy / item.name).symlink_to(item)
+        record["steady_state_window"] = [start, t1]
+        (copy / "run.json").write_text(json.dumps(record))
+        config = json.loads((root / "config.effective.json").read_text())
+        result, _ = run_fields(config, copy, checks=False)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        write_netcdf(result.dataset, out)
+    shutil.rmtree(copy, ignore_errors=True) if copy.exists() else None
+    return out
+
+
+def run_quantities(root: Path, settle_strain: float = 0.0) -> pd.DataFrame:
+    """One row per run and quantity: value, its stated error, and the run's cost and extremes.
+    With ``settle_strain``, the rheometer states are averaged after that many strain units of their
+    production (their production may start at the fill: the steady-state test passes on the wall's
+    force and height before the bulk's shear rate has settled)."""
     import xarray as xr
 
     rows = []
     for fields in sorted((root / "fields").glob("*/*.nc")):
         case, run = fields.parent.name, fields.stem
+        if case == "rheometer" and settle_strain > 0:
+            fields = settled_fields(root, case, run, settle_strain)
         record = json.loads((root / "dem" / case / run / "run.json").read_text())
         chunk_strain = float(record["provenance"]["config"]["dem"]["chunk_strain"])
         steps_per_strain = record["particle_count"] * record["chunk_steps"] / chunk_strain
@@ -134,41 +172,61 @@ def run_quantities(root: Path) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def report(work: Path, overlaps: list[float], dts: list[float]) -> pd.DataFrame:
+def report(work: Path, overlaps: list[float], dts: list[float], settle_strain: float = 0.0,
+           null_seeds: tuple[int, ...] = ()) -> pd.DataFrame:
+    """The table of the module docstring; ``null_seeds``: the reference setting rerun with those
+    seeds (``null-seed<S>``), a comparison in which nothing but the seed changes, so its shifts show
+    what the noise model calls a shift when there is none."""
     frames = []
-    for overlap in overlaps:
-        for dt in dts:
-            root = work / setting_name(overlap, dt)
-            if not (root / "fields").exists():
-                print(f"(no results for {root.name})")
-                continue
-            frames.append(run_quantities(root).assign(overlap=overlap, dt_over_tc=dt))
+    roots = [(work / setting_name(o, dt), o, dt, "config") for o in overlaps for dt in dts]
+    roots += [(work / f"null-seed{seed}", overlaps[0], dts[0], str(seed)) for seed in null_seeds]
+    for root, overlap, dt, seed in roots:
+        if not (root / "fields").exists():
+            print(f"(no results for {root.name})")
+            continue
+        frames.append(run_quantities(root, settle_strain).assign(overlap=overlap, dt_over_tc=dt, seed=seed))
     table = pd.concat(frames, ignore_index=True)
-    ref = (overlaps[0], dts[0])
+    keys = ["overlap", "dt_over_tc", "seed"]
+    ref = (overlaps[0], dts[0], "config")
     rows = []
     for quantity, q in table.groupby("quantity", sort=False):
         # The replica noise: the pooled variance between replicas over every setting.
-        groups = [g.value.dropna().to_numpy() for _, g in q.groupby(["overlap", "dt_over_tc"])]
+        groups = [g.value.dropna().to_numpy() for _, g in q.groupby(keys)]
         dof = sum(max(len(g) - 1, 0) for g in groups)
         pooled = math.sqrt(sum(float(((g - g.mean()) ** 2).sum()) for g in groups if len(g) > 1) / dof) if dof else math.nan
-        means = q.groupby(["overlap", "dt_over_tc"]).value.mean()
-        counts = q.groupby(["overlap", "dt_over_tc"]).value.count()
-        for (overlap, dt), mean in means.items():
-            noise = pooled * math.sqrt(1.0 / max(counts[(overlap, dt)], 1) + 1.0 / max(counts.get(ref, 1), 1))
+        means = q.groupby(keys).value.mean()
+        counts = q.groupby(keys).value.count()
+        for key, mean in means.items():
+            noise = pooled * math.sqrt(1.0 / max(counts[key], 1) + 1.0 / max(counts.get(ref, 1), 1))
             shift = (mean - means.get(ref, math.nan)) / noise if noise > 0 else math.nan
-            rows.append({"quantity": quantity, "overlap": overlap, "dt/t_c": dt, "mean": mean,
+            rows.append({"quantity": quantity, "overlap": key[0], "dt/t_c": key[1], "seed": key[2], "mean": mean,
                          "replica sd": pooled, "dof": dof, "shift / noise": shift})
     shifts = pd.DataFrame(rows)
+    columns = ["overlap", "dt/t_c", "seed"]
     with pd.option_context("display.width", 200, "display.max_rows", 500):
         print("\nEach quantity at each setting (mean of the replicas) and its shift from the reference "
               f"(overlap {ref[0]:g}, dt/t_c {ref[1]:g}) in units of the replica noise of that difference:")
-        print(shifts.pivot_table(index="quantity", columns=["overlap", "dt/t_c"], values="mean", sort=False).round(4).to_string())
+        print(shifts.pivot_table(index="quantity", columns=columns, values="mean", sort=False).round(4).to_string())
         print()
-        print(shifts.pivot_table(index="quantity", columns=["overlap", "dt/t_c"], values="shift / noise", sort=False).round(2).to_string())
-        cost = table.drop_duplicates(["overlap", "dt_over_tc", "case", "run"]).groupby(["overlap", "dt_over_tc", "case"]).agg(
+        print(shifts.pivot_table(index="quantity", columns=columns, values="shift / noise", sort=False).round(2).to_string())
+        summary = []
+        for key, g in shifts.groupby(columns):
+            z = g["shift / noise"].dropna()
+            z = z[g.loc[z.index, "seed"].notna()]
+            if tuple(key) == (ref[0], ref[1], ref[2]) or z.empty:
+                continue
+            chi2 = float((z**2).sum())
+            summary.append({"overlap": key[0], "dt/t_c": key[1], "seed": key[2], "quantities": len(z),
+                            "sum of shift^2": chi2, "p (chi2)": float(stats.chi2.sf(chi2, len(z))),
+                            "largest |shift|": float(z.abs().max())})
+        print("\nAll quantities together (sum of the squared shifts against chi2 with one dof each, if the "
+              "noise model holds):")
+        print(pd.DataFrame(summary).round(4).to_string(index=False))
+        cost = table[table.seed == "config"].drop_duplicates(["overlap", "dt_over_tc", "case", "run"]).groupby(
+            ["overlap", "dt_over_tc", "case"]).agg(
             steps_per_strain=("steps_per_strain", "mean"), max_overlap=("max_overlap_over_d", "max"),
             ke_mean=("ke_mean", "mean"), ke_max=("ke_max", "max"))
-        reference = cost.xs(ref, level=[0, 1]).steps_per_strain
+        reference = cost.xs(ref[:2], level=[0, 1]).steps_per_strain
         cost["steps_per_strain / reference"] = [r.steps_per_strain / reference[c] for (o, t, c), r in cost.iterrows()]
         print("\nParticle-steps per strain, the largest overlap / d and the kinetic energy per grain over m V^2 / 2:")
         print(cost.round(4).to_string())
@@ -184,6 +242,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--replicas", type=int, default=2)
     parser.add_argument("--cores", type=int, default=2)
     parser.add_argument("--report-only", action="store_true", help="read a finished --work folder, run nothing")
+    parser.add_argument("--null-seeds", type=int, nargs="*", default=[],
+                        help="also run the reference setting with these seeds: the shifts of nothing but the seed")
+    parser.add_argument("--settle-strain", type=float, default=1.0,
+                        help="average the rheometer states after this many strain units of production (default 1)")
     args = parser.parse_args(argv)
     args.work.mkdir(parents=True, exist_ok=True)
     base = yaml.safe_load(args.base.read_text())
@@ -192,7 +254,10 @@ def main(argv: list[str] | None = None) -> int:
             for dt in args.dts:
                 run_setting(setting_config(base, overlap, dt, args.work / setting_name(overlap, dt), args.replicas),
                             args.work, args.cores)
-    report(args.work, args.overlaps, args.dts)
+        for seed in args.null_seeds:
+            config = setting_config(base, args.overlaps[0], args.dts[0], args.work / f"null-seed{seed}", args.replicas)
+            run_setting(config | {"seed": seed}, args.work, args.cores)
+    report(args.work, args.overlaps, args.dts, args.settle_strain, tuple(args.null_seeds))
     return 0
 
 
