@@ -62,7 +62,13 @@ def fluidity_profile(z: np.ndarray, mu: np.ndarray, p: np.ndarray, params: NGFPa
     bands[0, 1] = 2.0 * inv_h2  # ghost node at the bottom wall
     bands[2, -2] = 2.0 * inv_h2  # ghost node at the top wall
     rhs = -k2 * local_fluidity(mu, p, params, d, rho_s)
-    return solve_banded((1, 1), bands, rhs, overwrite_ab=True, overwrite_b=True, check_finite=False)
+    if not (np.all(np.isfinite(bands)) and np.all(np.isfinite(rhs))):
+        raise ConvergenceError("ngf", float("nan"), f"the fluidity equation is not finite (A = {params.A!r}, "
+                               "or a stress ratio or pressure that is not)")
+    try:
+        return solve_banded((1, 1), bands, rhs, overwrite_ab=True, overwrite_b=True, check_finite=False)
+    except np.linalg.LinAlgError as exc:
+        raise ConvergenceError("ngf", float("nan"), f"the fluidity equation is singular (A = {params.A!r}): {exc}") from None
 
 
 # Deep below the shear zone g decays as exp(-z / xi); with a small A it falls below the smallest

@@ -13,9 +13,10 @@ correlations are carried into the predictions:
 2. each non-local parameter refitted on the calibration case's replica mean with the drawn local
    laws (:func:`pipeline.calibration.nonlocal_fit.fit_length`): the length the creep asks for
    moves with mu_s, which a draw of the length alone would miss;
-3. times ``exp(epsilon)``, epsilon normal with the length's relative replica error (the jackknife
-   of ``params.json``, or the curvature error with one replica): the realisation scatter of the
-   calibration case, which the refit on one replica mean does not see.
+3. times ``exp(epsilon)``, epsilon normal with the length's replica error in log (the jackknife of
+   the log values in ``params.json``, or the curvature error with one replica): the realisation
+   scatter of the calibration case, which the refit on one replica mean does not see; held to the
+   fit's own range (:data:`DRAW_BOUNDS`).
 
 A draw whose refit fails (no admissible length, a solver failure) keeps no value for that model
 (``null``) and says why; the models stage then has no solution for it.
@@ -84,9 +85,17 @@ def draw_local(params: dict[str, Any], rng: np.random.Generator) -> tuple[dict[s
 
 
 def relative_replica_error(entry: dict[str, Any]) -> float:
-    """The non-local parameter's relative realisation error: jackknife, else curvature."""
+    """The width in log of the non-local parameter's realisation error: the jackknife of log
+    values, else the relative jackknife or curvature error turned into log (log(1 + e / value)), so
+    that an error larger than the value (a fit at a bound of its range) gives a wide but finite factor."""
+    if math.isfinite(entry.get("error_jackknife_log", math.nan)):
+        return float(entry["error_jackknife_log"])
     error = entry.get("error_jackknife", entry["error_fit_curvature"])
-    return float(error / entry["value"])
+    return float(math.log1p(error / entry["value"]))
+
+
+#: The range a drawn non-local parameter is held to: the fit's own bounds (NGF's A; the lengths in d).
+DRAW_BOUNDS = {"ngf": (0.01, 10.0), "cosserat": (0.05, 20.0), "volume_averaged": (0.05, 20.0)}
 
 
 def draw_ensemble(params: dict[str, Any], nonlocal_paths: list[Path], settings: dict[str, Any], n_draws: int,
@@ -117,7 +126,9 @@ def draw_ensemble(params: dict[str, Any], nonlocal_paths: list[Path], settings: 
                         failures[model] = failures.get(model, 0) + 1
                         continue
                     draw["refit"][model] = {name: fit.value}
-                    draw["nonlocal"][model] = {name: fit.value * factor}
+                    lo, hi = DRAW_BOUNDS[model]
+                    scale = 1.0 if model == "ngf" else float(params["d"])
+                    draw["nonlocal"][model] = {name: float(np.clip(fit.value * factor, lo * scale, hi * scale))}
             draws.append(draw)
     finally:
         for ds in sets:

@@ -257,7 +257,10 @@ def fit_replicas(params: dict[str, Any], sets: Sequence[xr.Dataset], settings: d
                                  "per_replica": per_replica, "n_replicas": len(sets)}
         if left_out:
             jack = jackknife_error(list(loo.values()))
-            entry |= {"leave_one_out": loo, "error_jackknife": jack, "error": max(jack, fit.error),
+            # In log too: the draws multiply the length by a log-normal factor of this width.
+            jack_log = jackknife_error([math.log(v) for v in loo.values() if v > 0]) if all(v > 0 for v in loo.values()) else math.nan
+            entry |= {"leave_one_out": loo, "error_jackknife": jack, "error_jackknife_log": jack_log,
+                      "error": max(jack, fit.error),
                       "error_method": f"the larger of the jackknife over {len(sets)} replicas (leave one out) "
                                       "and the fit's curvature"}
         else:

@@ -116,8 +116,10 @@ def solve_draws(model: str, case: str, params: dict[str, Any], ensemble: dict[st
             continue
         try:
             sol = solve_on_case(model, case, params_of_draw(params, draw), fields, n_grid)
-        except ModelRunError as exc:
-            failures[k] = str(exc)[:300]
+        except (ModelRunError, ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
+            # A draw the model cannot be solved for is a property of the model over the calibration's
+            # uncertainty: recorded with its reason, not a failure of the step.
+            failures[k] = f"{type(exc).__name__}: {exc}"[:300]
             continue
         for n in names:
             if n in sol:
