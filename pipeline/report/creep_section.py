@@ -41,6 +41,12 @@ def decay_length_section(root: Path, figures: Any) -> str:
             ax.plot(x, (mu_s * (1 - x)) ** f.beta / f.C, color="grey", ls=style, lw=2, alpha=0.7,
                     label=f"DEM fit ({f.windows}): beta = {f.beta:.2f} +- {f.beta_err:.2f}")
     ax.axhline(0.0, color="k", lw=0.5)
+    if len(dem):
+        # The DEM's own range: a fitted law with a negative exponent diverges at yield.
+        low = float(np.nanmin(dem.slope * d - dem.slope_err * d))
+        high = float(np.nanmax(dem.slope * d + dem.slope_err * d))
+        span = high - low if high > low else 1.0
+        ax.set_ylim(min(low, 0.0) - 0.1 * span, high + 0.3 * span)
     ax.set_xlabel("local stress ratio mu / mu_s (-)")
     ax.set_ylabel("local creep decay rate d / xi = d (d ln u / dz) (-)")
     ax.legend(fontsize=7)
