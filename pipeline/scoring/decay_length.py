@@ -29,7 +29,8 @@ k and that of mu through the current beta; a slope near zero or below it is then
 other. Fitted on all windows, and without the windows nearest the band (``u / V >= BAND_EDGE``), so
 that the band's edge cannot decide beta. Model selection between ``xi`` constant (beta = 0, one
 parameter) and the power law (two): the chi2 difference (likelihood ratio, chi2 with one degree of
-freedom when the errors are Gaussian) and the AIC difference. Each model's k and mu on exactly the
+freedom when the errors are Gaussian) and the AIC difference. Where the windows reach above yield
+(mu > mu_s, the band side), ``k d = (mu - mu_s)^beta / C`` is fitted on them too. Each model's k and mu on exactly the
 DEM's windows (the same depths of the same case, the model's own u and mu there) give the model's
 beta on the same footing.
 """
@@ -149,18 +150,18 @@ def _power(x: np.ndarray, inv_c: float, beta: float) -> np.ndarray:
 
 
 def fit_law(mu: np.ndarray, slope_d: np.ndarray, slope_err_d: np.ndarray | None, mu_err: np.ndarray | None,
-            mu_s: float, beta_fixed: float | None = None) -> dict[str, float]:
-    """Fit ``k d = (mu_s - mu)^beta / C`` over the rows with mu < mu_s (module docstring); with
-    ``beta_fixed``, C only. ``slope_d`` is k d (dimensionless); ``slope_err_d`` its errors (None:
-    exact rows, equal weights)."""
+            mu_s: float, beta_fixed: float | None = None, side: str = "below") -> dict[str, float]:
+    """Fit ``k d = |mu_s - mu|^beta / C`` over the rows below yield (mu < mu_s; ``side="above"``:
+    mu > mu_s, the band side of Bouzid et al.) (module docstring); with ``beta_fixed``, C only.
+    ``slope_d`` is k d (dimensionless); ``slope_err_d`` its errors (None: exact rows, equal weights)."""
     mu, slope_d = np.asarray(mu, dtype=float), np.asarray(slope_d, dtype=float)
-    below = mu < mu_s
-    x = mu_s - mu[below]
+    below = mu < mu_s if side == "below" else mu > mu_s
+    x = np.abs(mu_s - mu[below])
     y = slope_d[below]
     n = int(below.sum())
     needed = 2 if beta_fixed is not None else 3
     if n < needed or (beta_fixed is None and np.ptp(x) == 0):
-        raise DecayLengthError(f"{n} decay rates below yield: need {needed} or more over a range of mu")
+        raise DecayLengthError(f"{n} decay rates {side} yield: need {needed} or more over a range of mu")
     exact = slope_err_d is None
     beta, inv_c = (0.5 if beta_fixed is None else beta_fixed), float(np.mean(y) / np.mean(x ** 0.5))
     sigma = None
@@ -249,6 +250,15 @@ def fits_table(dem: pd.DataFrame, models: pd.DataFrame, mu_s: float, d: float) -
                                                            sub.mu_err.values, mu_s), **select_model(sub, mu_s, d)})
         except (DecayLengthError, RuntimeError) as exc:
             rows.append({"source": "dem", **base, "note": str(exc)})
+        if limit == math.inf:
+            # The band side, where the creep windows reach above mu_s.
+            above = sub[sub.mu > mu_s]
+            try:
+                rows.append({"source": "dem", "windows": "above yield", "n_windows": len(above),
+                             **fit_law(above.mu.values, above.slope.values * d, above.slope_err.values * d,
+                                       above.mu_err.values, mu_s, side="above")})
+            except (DecayLengthError, RuntimeError) as exc:
+                rows.append({"source": "dem", "windows": "above yield", "n_windows": len(above), "note": str(exc)})
         for model, msub in keyed[keyed.dem_u_over_V < limit].groupby("model"):
             try:
                 rows.append({"source": model, **base, "n_windows": len(msub),
