@@ -55,7 +55,9 @@ def fluidity_profile(z: np.ndarray, mu: np.ndarray, p: np.ndarray, params: NGFPa
     dmu = np.maximum(np.abs(mu - params.mu_i.mu_s), params.delta_mu)
     k2 = dmu / (params.A * d) ** 2  # 1 / xi^2
     inv_h2 = 1.0 / h**2
-    bands = np.empty((3, n))
+    # zeros, not empty: solve_banded never reads bands[0, 0] or bands[2, -1], but the finiteness
+    # check below does, and uninitialised memory can hold NaN.
+    bands = np.zeros((3, n))
     bands[0, 1:] = inv_h2
     bands[1, :] = -2.0 * inv_h2 - k2
     bands[2, :-1] = inv_h2

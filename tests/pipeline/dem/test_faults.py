@@ -43,8 +43,9 @@ def tiny_config(folder: Path) -> Path:
     config["output_root"] = str(folder / "results")
     # The planar cases only: the contact stiffness follows the largest pressure of all cases.
     config["cases"] = {name: config["cases"][name] for name in ("rheometer", "shear_gravity")}
-    config["dem"].update(steady_window_chunks=2, max_shear_chunks=4, steady_force_tol=1.0, steady_height_tol=1.0,
-                         production_strain=1.0, snapshots=4, series_samples_per_chunk=20)
+    # min_shear_strain 0: the steady window may start at once, so the shear-chunk count is fixed.
+    config["dem"].update(steady_window_chunks=2, max_shear_chunks=4, min_shear_strain=0.0, steady_force_tol=1.0,
+                         steady_height_tol=1.0, production_strain=1.0, snapshots=4, series_samples_per_chunk=20)
     path = folder / "tiny.yaml"
     path.write_text(yaml.safe_dump(config))
     return path
