@@ -47,13 +47,15 @@ def wall_friction_row(case: str, reps: list[xr.Dataset]) -> dict:
 
 
 def rod_speed_row(runs: list[dict]) -> dict:
-    """The moving sheared rods' speeds, by depth (replicas at one target depth form a group)."""
-    groups: dict[float, list[tuple[float, float]]] = {}
+    """The moving sheared rods' speeds, by scene: the replicas of one target depth and one push form
+    a group (the depth sweep's run and the force sweep's at the same depth are other scenes)."""
+    groups: dict[tuple[float, bool, float], list[tuple[float, float]]] = {}
     for r in runs:
         rod = r["intruder"]
         if rod["control"] or rod["arrested"]:
             continue
-        groups.setdefault(round(rod["depth_target_over_d"], 6), []).append((rod["speed"], rod["speed_err"]))
+        scene = (round(rod["depth_target_over_d"], 6), bool(rod.get("force_sweep", False)), round(rod["force_fraction"], 6))
+        groups.setdefault(scene, []).append((rod["speed"], rod["speed_err"]))
     pooled = pooled_chi2((np.array([s for s, _ in g]), np.array([e for _, e in g])) for g in groups.values())
     return {"case": runs[0]["case"] if runs else "intruder", "field": "rod_speed", **pooled}
 

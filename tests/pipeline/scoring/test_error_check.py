@@ -54,3 +54,21 @@ def test_correlated_profiles_count_fewer_independent_points(rng) -> None:
     assert np.median([r["p_value"] for r in results]) > 0.2
     low = replica_chi2(smooth_replicas(rng, 0.0033, 0.01, 20), "nu")
     assert low["chi2"] > 4.0 and low["p_value"] < 1e-3
+
+
+def test_rod_speeds_are_grouped_by_scene_not_by_depth_alone(rng) -> None:
+    """Replicas of two pushes at one depth, each group's scatter equal to its stated error: chi2
+    is 1 within its error. Pooled by depth alone, the pushes' 100x different speeds would give
+    chi2 in the thousands (the default run's first error check said 120 that way)."""
+    from pipeline.scoring.scalar_checks import rod_speed_row
+
+    runs = []
+    for sweep, fraction, speed in ((False, 0.5, 1e-3), (True, 0.9, 1e-1)):
+        for _ in range(40):
+            err = 0.1 * speed
+            rod = {"control": False, "arrested": False, "depth_target_over_d": 7.0, "force_sweep": sweep,
+                   "force_fraction": fraction, "speed": speed + err * rng.standard_normal(), "speed_err": err}
+            runs.append({"case": "intruder", "intruder": rod})
+    row = rod_speed_row(runs)
+    assert row["dof"] == 2 * 39
+    assert abs(row["chi2"] - 1.0) < 3 * row["chi2_err"], row
