@@ -27,6 +27,7 @@ def snakemake(*args: str, wrapper: bool = False) -> subprocess.CompletedProcess:
 def one_clear_line(proc: subprocess.CompletedProcess, *words: str) -> None:
     assert proc.returncode != 0, proc.stdout[-2000:]
     assert "Traceback" not in proc.stderr and 'File "' not in proc.stderr, proc.stderr[-3000:]
+    print("message:", proc.stderr.strip().splitlines()[-1] if proc.stderr.strip() else "")  # shown by pytest -s
     for w in words:
         assert w in proc.stderr, (w, proc.stderr[-3000:])
 
