@@ -198,3 +198,25 @@ def test_a_fast_rheometer_state_continues_from_the_next_slower_one(config: dict)
     del rheometer["shared_fill"]
     with pytest.raises(ConfigError, match="cases.rheometer.continue_above: .* needs shared_fill: true"):
         validate_config(config, "my.yaml")
+
+
+def test_a_cases_min_shear_strain_is_its_own_runs_only() -> None:
+    """The held-out beds with gravity shear 3 strain units before their window; the rest keep
+    dem.min_shear_strain, and their run configs (what decides a rerun) do not change."""
+    from pathlib import Path as _Path
+
+    from pipeline.common.config import run_config
+    from pipeline.dem.planar_run import PlanarShearRun
+
+    config = load_config("config/config.yaml")
+    assert config["cases"]["shear_gravity_heavy"]["min_shear_strain"] == 3.0
+    heavy = PlanarShearRun(config, "shear_gravity_heavy", "r1", _Path("unused"))
+    rheometer = PlanarShearRun(config, "rheometer", dem_runs(config)[0][1], _Path("unused"))
+    assert heavy.min_shear_strain() == 3.0
+    assert rheometer.min_shear_strain() == config["dem"]["min_shear_strain"] == 1.0
+    plain = copy.deepcopy(config)
+    for case in plain["cases"].values():
+        case.pop("min_shear_strain", None)
+    run = dem_runs(config)[0]
+    assert run_config(plain, *run) == run_config(config, *run)
+    assert run_config(plain, "shear_gravity_heavy", "r1") != run_config(config, "shear_gravity_heavy", "r1")
