@@ -205,7 +205,7 @@ def load_config(path: str | Path) -> dict[str, Any]:
 def case_production(dem: dict[str, Any], case: dict[str, Any]) -> dict[str, Any]:
     """The ``dem`` settings one case's runs produce with: its own ``precision`` targets (in place of
     ``dem.precision``'s, with ``dem.precision.min_production_strain``) and ``production_strain``
-    cap where the case names them. ``snapshot_strain`` keeps the strain ``dem.snapshots`` are
+    cap and ``min_shear_strain`` where the case names them. ``snapshot_strain`` keeps the strain ``dem.snapshots`` are
     spread over (``dem.production_strain``), so a longer cap does not thin the dumps."""
     out = dict(dem) | {"snapshot_strain": dem["production_strain"]}
     if "precision" in case:
@@ -213,6 +213,8 @@ def case_production(dem: dict[str, Any], case: dict[str, Any]) -> dict[str, Any]
         out["precision"] = kept | dict(case["precision"])
     if "production_strain" in case:
         out["production_strain"] = case["production_strain"]
+    if "min_shear_strain" in case:
+        out["min_shear_strain"] = case["min_shear_strain"]
     return out
 
 

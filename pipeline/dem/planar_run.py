@@ -559,8 +559,8 @@ class PlanarShearRun:
 
     def min_shear_strain(self) -> float:
         """Strain of shear before the steady window may start: the case's ``min_shear_strain``,
-        else ``dem.min_shear_strain`` (0 when neither is set)."""
-        return float(self.case.get("min_shear_strain", self.dem.get("min_shear_strain", 0.0)))
+        else ``dem.min_shear_strain`` (0 when neither is set; :func:`case_production` merges them)."""
+        return float(self.dem.get("min_shear_strain", 0.0))
 
     def _tests_creep(self) -> bool:
         """Whether the steady-state test also holds the creep (``dem.steady_creep_tol``): planar
