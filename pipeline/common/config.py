@@ -261,12 +261,15 @@ def size_study_cell(run: str) -> float | None:
 
 def run_case(case: dict[str, Any], run: str) -> dict[str, Any]:
     """The case spec one run uses: a size-study run has a square L x L cell and the grains per
-    area of the case (same bed height, same pressures); every other run the case as given."""
+    area of the case (same bed height, same pressures) and the study's own ``production_strain``
+    cap where it names one; every other run the case as given."""
     cell = size_study_cell(run)
     if cell is None:
         return case
     scale = cell * cell / (case["cell_x"] * case["cell_y"])
-    return {**case, "cell_x": cell, "cell_y": cell, "n_grains": int(round(case["n_grains"] * scale))}
+    sized = {**case, "cell_x": cell, "cell_y": cell, "n_grains": int(round(case["n_grains"] * scale))}
+    cap = case["size_study"].get("production_strain")
+    return sized if cap is None else sized | {"production_strain": cap}
 
 
 def dem_runs(config: dict[str, Any]) -> list[tuple[str, str]]:

@@ -133,6 +133,25 @@ def creep_speed(time: np.ndarray, x: np.ndarray, n_blocks: int = SPEED_BLOCKS, r
     return CreepSpeed(speed, block_err, displacement, duration, bool(arrested), block_err, auto_err, tau)
 
 
+def production_halves(time: np.ndarray, x: np.ndarray, rest_speed: float = 0.0) -> dict[str, float] | None:
+    """The rod's speed (m/s) over the first and the second half (in time) of a window, each with
+    its batch-means error of ``SPEED_BLOCKS`` blocks (:func:`creep_speed`).
+
+    The halves share the rod's neighbourhood, so their difference tests the time error alone: a
+    difference within the errors and replicas farther apart than their errors put the excess in
+    the frozen packing around the rod, which no longer average removes (validation/creep_halves.csv).
+    None when a half holds too few samples for its blocks.
+    """
+    time, x = np.asarray(time, dtype=float), np.asarray(x, dtype=float)
+    # The halves share the middle sample, so their displacements add up to the window's.
+    middle = int(np.searchsorted(time, 0.5 * (time[0] + time[-1])))
+    if min(middle + 1, time.size - middle) < 3 * SPEED_BLOCKS:
+        return None
+    a = creep_speed(time[: middle + 1], x[: middle + 1], rest_speed=rest_speed)
+    b = creep_speed(time[middle:], x[middle:], rest_speed=rest_speed)
+    return {"first": a.speed, "first_err": a.speed_err, "second": b.speed, "second_err": b.speed_err}
+
+
 def is_arrested(speed: float, speed_err: float, rest_speed: float) -> bool:
     """The arrest rule on the speed alone (m/s): within twice its error of zero, or no faster
     than ``rest_speed``."""
@@ -409,6 +428,7 @@ class IntruderRun(PlanarShearRun):
             "window": [t_start, t_end],
             "arrested": creep.arrested,
             "speed_blocks": SPEED_BLOCKS,
+            "halves": production_halves(series["time"].to_numpy(), series["x"].to_numpy(), self.rest_speed()),
         }
         return record
 

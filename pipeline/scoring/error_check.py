@@ -151,17 +151,22 @@ def scalar_rows(rheometer: list[Path], fields: list[Path], intruder_runs: list[P
         for ds in sets:
             ds.close()
     if intruder_runs:
-        rows.append(scalar_checks.rod_speed_row([json.loads(p.read_text()) for p in intruder_runs]))
+        runs = [json.loads(p.read_text()) for p in intruder_runs]
+        rows.append(scalar_checks.rod_speed_row(runs))
+        rows.append(scalar_checks.rod_halves_row(runs))
     return rows
 
 
-def halves_table(fields: list[Path]) -> pd.DataFrame:
-    """``validation/creep_halves.csv``: each planar gravity run's production, first half against second."""
+def halves_table(fields: list[Path], intruder_runs: list[Path] = ()) -> pd.DataFrame:
+    """``validation/creep_halves.csv``: each planar gravity run's production, first half against
+    second, then each moving rod's speed (case ``intruder``)."""
     frames = []
     for path in sorted(fields):
         with xr.open_dataset(path) as ds:
             if float(ds.attrs.get("gravity", 0.0)) > 0:
                 frames.append(scalar_checks.creep_halves(ds))
+    if intruder_runs:
+        frames.append(scalar_checks.rod_halves([json.loads(p.read_text()) for p in intruder_runs]))
     frames = [f for f in frames if not f.empty]
     return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame(columns=scalar_checks.HALVES_COLUMNS)
 
@@ -179,7 +184,7 @@ def main(argv: list[str] | None = None) -> int:
                              "(validation/creep_halves.csv)")
     args = parser.parse_args(argv)
     if args.halves_out is not None:
-        halves = halves_table(args.fields)
+        halves = halves_table(args.fields, args.intruder_runs)
         atomic.write_csv(halves, args.halves_out)
         for (case, run), frame in halves.groupby(["case", "run"]):
             print(f"{case}/{run}: creep halves at {len(frame)} depths, mean z {frame.z.mean():+.2f}, "

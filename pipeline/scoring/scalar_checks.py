@@ -83,3 +83,41 @@ def creep_halves(ds: xr.Dataset) -> pd.DataFrame:
                      "first_over_v": a / v, "first_err_over_v": ea / v, "second_over_v": b / v, "second_err_over_v": eb / v,
                      "log10_change": change, "log10_change_err": change_err, "z": change / change_err})
     return pd.DataFrame(rows, columns=HALVES_COLUMNS)
+
+
+def rod_halves(runs: list[dict]) -> pd.DataFrame:
+    """First-half against second-half speed of every moving sheared rod's production (``halves`` of
+    its run record, pipeline.dem.intruder_run.production_halves), in the creep halves' columns:
+    ``depth_over_d`` is the rod's target depth (its run id), speeds over the wall speed. A rod is
+    left out where either half is not resolved (above twice its error)."""
+    rows = []
+    for r in runs:
+        rod = r["intruder"]
+        halves = rod.get("halves")
+        if rod["control"] or rod["arrested"] or not halves:
+            continue
+        a, ea, b, eb = (float(halves[k]) for k in ("first", "first_err", "second", "second_err"))
+        if not (a > 2 * ea and b > 2 * eb):
+            continue
+        v = rod["speed"] / rod["speed_over_wall_speed"]
+        change = math.log10(b / a)
+        change_err = math.hypot(ea / a, eb / b) / math.log(10.0)
+        rows.append({"case": r["case"], "run": r["run"], "depth_over_d": float(rod["depth_target_over_d"]),
+                     "first_over_v": a / v, "first_err_over_v": ea / v, "second_over_v": b / v, "second_err_over_v": eb / v,
+                     "log10_change": change, "log10_change_err": change_err, "z": change / change_err})
+    return pd.DataFrame(rows, columns=HALVES_COLUMNS)
+
+
+def rod_halves_row(runs: list[dict]) -> dict:
+    """``rod_speed_halves``: the rods' first-half and second-half speeds as a pair per run, pooled
+    (one degree of freedom each). It tests the time error alone, the halves sharing the rod's
+    neighbourhood; ``rod_speed`` (the replicas) adds the frozen packing's scatter."""
+    groups = []
+    for r in runs:
+        rod = r["intruder"]
+        halves = rod.get("halves")
+        if rod["control"] or rod["arrested"] or not halves:
+            continue
+        groups.append((np.array([halves["first"], halves["second"]], dtype=float),
+                       np.array([halves["first_err"], halves["second_err"]], dtype=float)))
+    return {"case": runs[0]["case"] if runs else "intruder", "field": "rod_speed_halves", **pooled_chi2(groups)}

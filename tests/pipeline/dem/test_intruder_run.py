@@ -14,7 +14,7 @@ import pytest
 
 from pipeline.common.config import dem_runs, intruder_push, intruder_run, load_config
 from pipeline.dumps.reader import read_particles
-from pipeline.dem.intruder_run import CreepSpeed, creep_speed, rod_speed_settled, unwrap
+from pipeline.dem.intruder_run import CreepSpeed, creep_speed, production_halves, rod_speed_settled, unwrap
 
 REPO = Path(__file__).resolve().parents[3]
 D = 0.002
@@ -49,6 +49,21 @@ def test_arrest_depends_on_the_speed_not_on_the_window(rng: np.random.Generator)
         c = creep_speed(t, x, rest_speed=1e-6)
         assert not c.arrested, (duration, c)
         assert c.speed == pytest.approx(speed, rel=0.01)
+
+
+def test_halves_agree_for_a_steady_rod_and_part_for_a_slowing_one(rng: np.random.Generator) -> None:
+    """A steady drift: each half's speed is the drift within 3 of its errors. A rod whose speed
+    halves at the window's middle: the halves are the two speeds, apart by far more than their errors."""
+    t = np.linspace(0.0, 1.0, 1600)
+    steady = production_halves(t, 1e-3 * t + 2e-6 * rng.standard_normal(t.size))
+    for half in ("first", "second"):
+        assert abs(steady[half] - 1e-3) < 3.0 * steady[f"{half}_err"]
+    x = np.where(t < 0.5, 1e-3 * t, 5e-4 + 5e-4 * (t - 0.5)) + 2e-6 * rng.standard_normal(t.size)
+    slowing = production_halves(t, x)
+    assert slowing["first"] == pytest.approx(1e-3, rel=0.05) and slowing["second"] == pytest.approx(5e-4, rel=0.05)
+    assert slowing["first"] - slowing["second"] > 10.0 * np.hypot(slowing["first_err"], slowing["second_err"])
+    # Too few samples for a half's blocks: no halves rather than an error from too few blocks.
+    assert production_halves(t[:40], x[:40]) is None
 
 
 def _relaxing_rod(t: np.ndarray, plateau: float, excess: float, tau: float, rng: np.random.Generator) -> np.ndarray:
@@ -163,6 +178,9 @@ def test_sheared_rod_creeps_forward(sheared: dict[str, Any], control: dict[str, 
     assert not rod["arrested"], rod
     assert rod["speed"] > 2.0 * rod["speed_err"] > 0.0
     assert rod["speed"] < sheared["wall_speed"]
+    # The production's halves average to the whole window's displacement speed (equal durations).
+    halves = rod["halves"]
+    assert 0.5 * (halves["first"] + halves["second"]) == pytest.approx(rod["speed"], rel=0.02)
     assert rod["force"] == control["intruder"]["force"]
     # Production began only when the rod's speed over the window agreed with its speed over as
     # many chunks before: a moving rod needs two windows of shear at the least.

@@ -28,6 +28,16 @@ def test_size_study_runs_keep_grains_per_area() -> None:
     assert run_case(case, "r1") is case and size_study_cell("r1") is None
 
 
+def test_size_study_has_its_own_production_cap() -> None:
+    case = load_config("config/config.yaml")["cases"]["shear_gravity"]
+    study = case["size_study"] | {"production_strain": 1.5}
+    case = case | {"size_study": study, "production_strain": 8.0}
+    assert run_case(case, size_study_runs(case)[0])["production_strain"] == 1.5
+    assert run_case(case, "r1")["production_strain"] == 8.0
+    without = case | {"size_study": {k: v for k, v in study.items() if k != "production_strain"}}
+    assert run_case(without, size_study_runs(without)[0])["production_strain"] == 8.0
+
+
 def test_run_cost_splits_the_run_by_its_steps() -> None:
     run = {"wall_clock_seconds": 100.0, "mpi_ranks": 2, "production_chunks": 2, "chunk_steps": 1000, "steps": 8000}
     transient, production = run_cost(run)

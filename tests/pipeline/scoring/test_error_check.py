@@ -72,3 +72,24 @@ def test_rod_speeds_are_grouped_by_scene_not_by_depth_alone(rng) -> None:
     row = rod_speed_row(runs)
     assert row["dof"] == 2 * 39
     assert abs(row["chi2"] - 1.0) < 3 * row["chi2_err"], row
+
+
+def test_rod_halves_test_the_time_error_alone(rng) -> None:
+    """Halves that scatter by their stated errors: chi2 1 within its error, and z of unit spread in
+    the halves table; a frozen offset between runs (replica scatter) does not enter it."""
+    from pipeline.scoring.scalar_checks import rod_halves, rod_halves_row
+
+    runs = []
+    for k in range(60):
+        speed = 1e-3 * 10 ** rng.normal(0.0, 0.5)  # each run's own frozen neighbourhood
+        err = 0.05 * speed
+        halves = {"first": speed + err * rng.standard_normal(), "first_err": err,
+                  "second": speed + err * rng.standard_normal(), "second_err": err}
+        rod = {"control": False, "arrested": False, "depth_target_over_d": 7.0, "speed": speed,
+               "speed_over_wall_speed": speed / 0.1, "halves": halves}
+        runs.append({"case": "intruder", "run": f"D7-r{k + 1}", "intruder": rod})
+    row = rod_halves_row(runs)
+    assert row["dof"] == 60 and abs(row["chi2"] - 1.0) < 3 * row["chi2_err"], row
+    table = rod_halves(runs)
+    assert len(table) == 60 and abs(table.z.std() - 1.0) < 0.3
+    assert np.allclose(table.first_over_v, [r["intruder"]["halves"]["first"] / 0.1 for r in runs])
