@@ -268,7 +268,7 @@ def run_case(case: dict[str, Any], run: str) -> dict[str, Any]:
         return case
     scale = cell * cell / (case["cell_x"] * case["cell_y"])
     sized = {**case, "cell_x": cell, "cell_y": cell, "n_grains": int(round(case["n_grains"] * scale))}
-    cap = case["size_study"].get("production_strain")
+    cap = (case.get("size_study") or {}).get("production_strain")
     return sized if cap is None else sized | {"production_strain": cap}
 
 
@@ -480,8 +480,13 @@ def dem_config(config: dict[str, Any], case: str | None = None) -> dict[str, Any
 def run_config(config: dict[str, Any], case: str, run: str) -> dict[str, Any]:
     """What one DEM run depends on and nothing more, as a config of its own: :func:`dem_config` of
     its case, a rheometer case narrowed to the run's own state (``inertial_numbers: [I]`` at its
-    ``wall_pressure``). Adding a rheometer state or another case leaves every other run as it is."""
+    ``wall_pressure``), a size-study run's case with the study's ``production_strain``. Adding a
+    rheometer state or another case leaves every other run as it is."""
     out = dem_config(config, case)
+    cap = (config["cases"][case].get("size_study") or {}).get("production_strain")
+    if size_study_cell(run) is not None and cap is not None:
+        # The study's cap is this run's (the study itself is left out of its case's DEM config).
+        out["cases"][case] = out["cases"][case] | {"production_strain": cap}
     if case == RHEOMETER:
         inertial, pressure = run_state(run)
         spec = {k: v for k, v in out["cases"][case].items() if k != "extra_states"}

@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from pipeline.common.config import load_config, run_case, size_study_cell, size_study_runs
+from pipeline.common.config import load_config, run_case, run_config, size_study_cell, size_study_runs
 from pipeline.scoring.dem_convergence import AVERAGING_FRACTIONS, run_cost, truncated_fields
 from pipeline.coarse_graining.fields import run_fields
 from pipeline.common.formats import open_fields
@@ -34,6 +34,12 @@ def test_size_study_has_its_own_production_cap() -> None:
     case = case | {"size_study": study, "production_strain": 8.0}
     assert run_case(case, size_study_runs(case)[0])["production_strain"] == 1.5
     assert run_case(case, "r1")["production_strain"] == 8.0
+    # Through the run's own DEM config (the study left out of it), as the DEM stage reads it.
+    config = load_config("config/config.yaml")
+    config["cases"]["shear_gravity"] = case
+    run = size_study_runs(case)[0]
+    assert run_config(config, "shear_gravity", run)["cases"]["shear_gravity"]["production_strain"] == 1.5
+    assert run_config(config, "shear_gravity", "r1")["cases"]["shear_gravity"]["production_strain"] == 8.0
     without = case | {"size_study": {k: v for k, v in study.items() if k != "production_strain"}}
     assert run_case(without, size_study_runs(without)[0])["production_strain"] == 8.0
 
