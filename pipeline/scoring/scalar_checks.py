@@ -60,6 +60,20 @@ def rod_speed_row(runs: list[dict]) -> dict:
     return {"case": runs[0]["case"] if runs else "intruder", "field": "rod_speed", **pooled}
 
 
+def halves_row(case: str, run: str, depth_over_d: float, first: float, first_err: float, second: float,
+               second_err: float, wall_speed: float) -> dict | None:
+    """One row of the halves table (speeds in m/s, over ``wall_speed``), its log10 change and z;
+    None where either half is not resolved (above twice its error)."""
+    if not (first > 2 * first_err and second > 2 * second_err):
+        return None
+    change = math.log10(second / first)
+    change_err = math.hypot(first_err / first, second_err / second) / math.log(10.0)
+    return {"case": case, "run": run, "depth_over_d": depth_over_d,
+            "first_over_v": first / wall_speed, "first_err_over_v": first_err / wall_speed,
+            "second_over_v": second / wall_speed, "second_err_over_v": second_err / wall_speed,
+            "log10_change": change, "log10_change_err": change_err, "z": change / change_err}
+
+
 def creep_halves(ds: xr.Dataset) -> pd.DataFrame:
     """First-half against second-half creep of one planar run, at every whole d below the top
     contact plane inside the walls where both halves are resolved (above twice their errors)."""
@@ -75,14 +89,18 @@ def creep_halves(ds: xr.Dataset) -> pd.DataFrame:
             break
         a, ea, b, eb = (float(np.interp(target, depth[order], ds[n].values[order])) for n in
                         ("u_x_disp_first_half", "u_x_disp_first_half_err", "u_x_disp_second_half", "u_x_disp_second_half_err"))
-        if not (a > 2 * ea and b > 2 * eb):
-            continue
-        change = math.log10(b / a)
-        change_err = math.hypot(ea / a, eb / b) / math.log(10.0)
-        rows.append({"case": str(ds.attrs.get("case", "")), "run": str(ds.attrs.get("run", "")), "depth_over_d": target,
-                     "first_over_v": a / v, "first_err_over_v": ea / v, "second_over_v": b / v, "second_err_over_v": eb / v,
-                     "log10_change": change, "log10_change_err": change_err, "z": change / change_err})
+        row = halves_row(str(ds.attrs.get("case", "")), str(ds.attrs.get("run", "")), float(target), a, ea, b, eb, v)
+        if row is not None:
+            rows.append(row)
     return pd.DataFrame(rows, columns=HALVES_COLUMNS)
+
+
+def _moving_rod_halves(runs: list[dict]):
+    """(run record, rod record, halves) of every moving sheared rod whose record has its halves."""
+    for r in runs:
+        rod = r["intruder"]
+        if not (rod["control"] or rod["arrested"] or not rod.get("halves")):
+            yield r, rod, rod["halves"]
 
 
 def rod_halves(runs: list[dict]) -> pd.DataFrame:
@@ -91,20 +109,12 @@ def rod_halves(runs: list[dict]) -> pd.DataFrame:
     ``depth_over_d`` is the rod's target depth (its run id), speeds over the wall speed. A rod is
     left out where either half is not resolved (above twice its error)."""
     rows = []
-    for r in runs:
-        rod = r["intruder"]
-        halves = rod.get("halves")
-        if rod["control"] or rod["arrested"] or not halves:
-            continue
-        a, ea, b, eb = (float(halves[k]) for k in ("first", "first_err", "second", "second_err"))
-        if not (a > 2 * ea and b > 2 * eb):
-            continue
+    for r, rod, halves in _moving_rod_halves(runs):
         v = rod["speed"] / rod["speed_over_wall_speed"]
-        change = math.log10(b / a)
-        change_err = math.hypot(ea / a, eb / b) / math.log(10.0)
-        rows.append({"case": r["case"], "run": r["run"], "depth_over_d": float(rod["depth_target_over_d"]),
-                     "first_over_v": a / v, "first_err_over_v": ea / v, "second_over_v": b / v, "second_err_over_v": eb / v,
-                     "log10_change": change, "log10_change_err": change_err, "z": change / change_err})
+        row = halves_row(r["case"], r["run"], float(rod["depth_target_over_d"]),
+                         *(float(halves[k]) for k in ("first", "first_err", "second", "second_err")), v)
+        if row is not None:
+            rows.append(row)
     return pd.DataFrame(rows, columns=HALVES_COLUMNS)
 
 
@@ -112,12 +122,6 @@ def rod_halves_row(runs: list[dict]) -> dict:
     """``rod_speed_halves``: the rods' first-half and second-half speeds as a pair per run, pooled
     (one degree of freedom each). It tests the time error alone, the halves sharing the rod's
     neighbourhood; ``rod_speed`` (the replicas) adds the frozen packing's scatter."""
-    groups = []
-    for r in runs:
-        rod = r["intruder"]
-        halves = rod.get("halves")
-        if rod["control"] or rod["arrested"] or not halves:
-            continue
-        groups.append((np.array([halves["first"], halves["second"]], dtype=float),
-                       np.array([halves["first_err"], halves["second_err"]], dtype=float)))
+    groups = [(np.array([h["first"], h["second"]], dtype=float), np.array([h["first_err"], h["second_err"]], dtype=float))
+              for _, _, h in _moving_rod_halves(runs)]
     return {"case": runs[0]["case"] if runs else "intruder", "field": "rod_speed_halves", **pooled_chi2(groups)}
