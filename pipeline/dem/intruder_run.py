@@ -149,7 +149,8 @@ def production_halves(time: np.ndarray, x: np.ndarray, rest_speed: float = 0.0) 
         return None
     a = creep_speed(time[: middle + 1], x[: middle + 1], rest_speed=rest_speed)
     b = creep_speed(time[middle:], x[middle:], rest_speed=rest_speed)
-    return {"first": a.speed, "first_err": a.speed_err, "second": b.speed, "second_err": b.speed_err}
+    return {"first": a.speed, "first_err": a.speed_err, "second": b.speed, "second_err": b.speed_err,
+            "blocks": SPEED_BLOCKS}
 
 
 def is_arrested(speed: float, speed_err: float, rest_speed: float) -> bool:

@@ -18,13 +18,14 @@ import math
 import numpy as np
 import pandas as pd
 import xarray as xr
+from scipy import stats
 
 from pipeline.common.statistics import error_scale, pooled_chi2  # noqa: F401 (error_scale: used by error_check)
 
 SCALAR_COLUMNS = ["case", "field", "chi2", "chi2_err", "pairs", "points", "replicas", "dof", "p_value",
                   "correlation_points", "error_scale"]
 HALVES_COLUMNS = ["case", "run", "depth_over_d", "first_over_v", "first_err_over_v", "second_over_v",
-                  "second_err_over_v", "log10_change", "log10_change_err", "z"]
+                  "second_err_over_v", "log10_change", "log10_change_err", "z", "dof", "p_value", "z_normal"]
 
 
 def rheometer_rows(states: dict[str, list[xr.Dataset]]) -> list[dict]:
@@ -61,17 +62,32 @@ def rod_speed_row(runs: list[dict]) -> dict:
 
 
 def halves_row(case: str, run: str, depth_over_d: float, first: float, first_err: float, second: float,
-               second_err: float, wall_speed: float) -> dict | None:
+               second_err: float, wall_speed: float, blocks: float = math.nan) -> dict | None:
     """One row of the halves table (speeds in m/s, over ``wall_speed``), its log10 change and z;
-    None where either half is not resolved (above twice its error)."""
+    None where either half is not resolved (above twice its error).
+
+    Each half's error is a batch-means error of ``blocks`` blocks (``blocks - 1`` degrees of
+    freedom), so z is Student's t with the Welch-Satterthwaite ``dof``, not a normal deviate: with
+    few blocks |z| > 2 is common in a steady run (18 % at 2 dof). ``p_value`` is the two-sided
+    probability of so large a change in a steady run, ``z_normal`` the normal deviate of the same
+    probability (signed as z), so that counts beyond 2 read against 4.6 %. NaN where ``blocks`` is
+    not known (a file from before it was recorded)."""
     if not (first > 2 * first_err and second > 2 * second_err):
         return None
     change = math.log10(second / first)
-    change_err = math.hypot(first_err / first, second_err / second) / math.log(10.0)
+    rel_a, rel_b = first_err / first, second_err / second
+    change_err = math.hypot(rel_a, rel_b) / math.log(10.0)
+    z = change / change_err
+    dof = p_value = z_normal = math.nan
+    if blocks >= 2:
+        dof = (rel_a ** 2 + rel_b ** 2) ** 2 / ((rel_a ** 4 + rel_b ** 4) / (blocks - 1.0))
+        p_value = float(2.0 * stats.t.sf(abs(z), dof))
+        z_normal = math.copysign(float(stats.norm.isf(0.5 * p_value)), z)
     return {"case": case, "run": run, "depth_over_d": depth_over_d,
             "first_over_v": first / wall_speed, "first_err_over_v": first_err / wall_speed,
             "second_over_v": second / wall_speed, "second_err_over_v": second_err / wall_speed,
-            "log10_change": change, "log10_change_err": change_err, "z": change / change_err}
+            "log10_change": change, "log10_change_err": change_err, "z": z,
+            "dof": dof, "p_value": p_value, "z_normal": z_normal}
 
 
 def creep_halves(ds: xr.Dataset) -> pd.DataFrame:
@@ -89,7 +105,8 @@ def creep_halves(ds: xr.Dataset) -> pd.DataFrame:
             break
         a, ea, b, eb = (float(np.interp(target, depth[order], ds[n].values[order])) for n in
                         ("u_x_disp_first_half", "u_x_disp_first_half_err", "u_x_disp_second_half", "u_x_disp_second_half_err"))
-        row = halves_row(str(ds.attrs.get("case", "")), str(ds.attrs.get("run", "")), float(target), a, ea, b, eb, v)
+        row = halves_row(str(ds.attrs.get("case", "")), str(ds.attrs.get("run", "")), float(target), a, ea, b, eb, v,
+                         float(ds.attrs.get("half_window_blocks", math.nan)))
         if row is not None:
             rows.append(row)
     return pd.DataFrame(rows, columns=HALVES_COLUMNS)
@@ -112,7 +129,8 @@ def rod_halves(runs: list[dict]) -> pd.DataFrame:
     for r, rod, halves in _moving_rod_halves(runs):
         v = rod["speed"] / rod["speed_over_wall_speed"]
         row = halves_row(r["case"], r["run"], float(rod["depth_target_over_d"]),
-                         *(float(halves[k]) for k in ("first", "first_err", "second", "second_err")), v)
+                         *(float(halves[k]) for k in ("first", "first_err", "second", "second_err")), v,
+                         float(halves.get("blocks", math.nan)))
         if row is not None:
             rows.append(row)
     return pd.DataFrame(rows, columns=HALVES_COLUMNS)

@@ -93,3 +93,25 @@ def test_rod_halves_test_the_time_error_alone(rng) -> None:
     table = rod_halves(runs)
     assert len(table) == 60 and abs(table.z.std() - 1.0) < 0.3
     assert np.allclose(table.first_over_v, [r["intruder"]["halves"]["first"] / 0.1 for r in runs])
+
+
+def test_halves_z_reads_against_students_t(rng) -> None:
+    """Steady creep whose halves' errors come from 3 blocks each: |z| > 2 is common (Student t,
+    about 2-4 dof), |z_normal| > 2 happens 4.55 % of the time, as for a normal deviate."""
+    from pipeline.scoring.scalar_checks import halves_row
+
+    blocks, beyond_z, beyond_normal, n = 3, 0, 0, 4000
+    for _ in range(n):
+        halves = []
+        for _half in range(2):
+            block_speeds = 1e-3 * (1.0 + 0.05 * rng.standard_normal(blocks))
+            halves += [block_speeds.mean(), block_speeds.std(ddof=1) / np.sqrt(blocks)]
+        row = halves_row("c", "r1", 5.0, *halves, 0.1, blocks)
+        beyond_z += abs(row["z"]) > 2
+        beyond_normal += abs(row["z_normal"]) > 2
+        assert 2.0 <= row["dof"] <= 2 * (blocks - 1)
+    expected = 0.0455 * n
+    assert abs(beyond_normal - expected) < 4 * np.sqrt(expected), beyond_normal
+    assert beyond_z > expected + 6 * np.sqrt(expected), beyond_z
+    # Blocks not recorded: no dof, and no claim.
+    assert np.isnan(halves_row("c", "r1", 5.0, 1e-3, 1e-5, 1e-3, 1e-5, 0.1)["z_normal"])
