@@ -32,6 +32,17 @@ def _pm(value: float, u: float) -> str:
     return f"{value:.3g} +- {u:.2g}" if math.isfinite(u) else f"{value:.3g}"
 
 
+def _noise(score: pd.Series) -> str:
+    """A score row's DEM noise floor (the replica-pair mean of the metric) with its own standard
+    error over the pairs and their count: a floor from one pair has no error of its own."""
+    noise = float(score.get("dem_noise", np.nan))
+    if not np.isfinite(noise):
+        return "n/a: one replica"
+    err, pairs = float(score.get("dem_noise_err", np.nan)), score.get("dem_noise_pairs", np.nan)
+    pairs_text = f", {int(pairs)} pairs" if pd.notna(pairs) else ""
+    return (f"{noise:.3g} +- {err:.2g}{pairs_text}" if np.isfinite(err) else f"{noise:.3g}{pairs_text}")
+
+
 def headline_table(verdicts: pd.DataFrame, scores: pd.DataFrame) -> pd.DataFrame:
     """Per held-out case and metric: the models that cannot be told apart from the best at the
     verdict's confidence, the worse ones, the best's u_val and its parts, and the DEM noise."""
@@ -44,7 +55,7 @@ def headline_table(verdicts: pd.DataFrame, scores: pd.DataFrame) -> pd.DataFrame
         tied = frame[frame.verdict == "cannot_tell_apart"].sort_values("value")
         worse = frame[frame.verdict == "worse"].sort_values("value")
         none = frame[frame.verdict == "no_prediction"]
-        noise = scores[(scores.case == case) & (scores.metric == metric)]["dem_noise"]
+        noise = scores[(scores.case == case) & (scores.metric == metric)]
         shown_metric = metric if str(b.points).endswith("z points") else f"{metric} (on {b.points})"
         rows.append({
             "case": case, "metric": shown_metric,
@@ -52,7 +63,7 @@ def headline_table(verdicts: pd.DataFrame, scores: pd.DataFrame) -> pd.DataFrame
                                                             + [f"{r.model} {_pm(r.value, r.u_val)}" for r in tied.itertuples()]),
             "worse": "; ".join(f"{r.model} {_pm(r.value, r.u_val)}" for r in worse.itertuples()) or "none",
             "best's u_dem / u_input / u_num": f"{b.u_dem:.2g} / {b.u_input:.2g} / {b.u_num:.2g}",
-            "DEM noise": f"{float(noise.iloc[0]):.3g}" if len(noise) and np.isfinite(noise.iloc[0]) else "n/a: one replica",
+            "DEM noise (+- its error, pairs)": _noise(noise.iloc[0]) if len(noise) else "n/a: one replica",
             "not predicted by": ", ".join(sorted(none.model)) or "none",
         })
     table = pd.DataFrame(rows).astype(object)
@@ -74,9 +85,9 @@ def case_table(frame: pd.DataFrame, verdicts: pd.DataFrame | None) -> str:
             style.append(VERDICT_COLOUR.get(judged.get((model, metric), ""), ""))
         rows.append(row)
         styles.append(style)
-    noise = frame.groupby("metric")["dem_noise"].first()
-    rows.append({"model": "DEM noise (replica vs replica)"}
-                | {m: (f"{noise[m]:.3g}" if np.isfinite(noise.get(m, np.nan)) else "n/a: one replica") for m in metrics})
+    noise = frame.groupby("metric").first()
+    rows.append({"model": "DEM noise (replica vs replica, +- its error, pairs)"}
+                | {m: (_noise(noise.loc[m]) if m in noise.index else "n/a: one replica") for m in metrics})
     styles.append([""] * (len(metrics) + 1))
     return table_html(pd.DataFrame(rows, columns=["model", *metrics]), cell_style=styles, css_class="scores")
 
