@@ -39,7 +39,7 @@ ATTRIBUTE_UNITS = {
     "l": "m", "mu_s": "1", "mu_2": "1", "I_0": "1", "A": "1", "sin_phi": "1", "nu_c": "1", "a": "1",
     "yield_height": "m", "contacts_included": "1", "format_version": "1", "I_max_solution": "1",
     "I_max_calibrated": "1", "nu_structure_alpha": "1", "u_x_disp_structure_alpha": "1", "outside_calibrated_range": "1", "normal_stress_ratio": "1", "cells_per_d": "1",
-    "wall_friction": "1", "wall_friction_err": "1", "half_window_split_time": "s", "n_grid_refined": "1", "n_draws": "1",
+    "wall_friction": "1", "wall_friction_err": "1", "half_window_split_time": "s", "half_window_blocks": "1", "n_grid_refined": "1", "n_draws": "1",
     "n_solved": "1", "draws_seed": "1", "cells_per_d_refined": "1",
 }
 _DIMENSIONLESS_SUFFIXES = ("_over_d", "_over_p", "_over_err", "_ratio", "_residual", "_rel", "_chi2", "_fraction",
