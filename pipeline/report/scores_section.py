@@ -55,7 +55,7 @@ def headline_table(verdicts: pd.DataFrame, scores: pd.DataFrame) -> pd.DataFrame
         tied = frame[frame.verdict == "cannot_tell_apart"].sort_values("value")
         worse = frame[frame.verdict == "worse"].sort_values("value")
         none = frame[frame.verdict == "no_prediction"]
-        noise = scores[(scores.case == case) & (scores.metric == metric)]
+        score_rows = scores[(scores.case == case) & (scores.metric == metric)]
         shown_metric = metric if str(b.points).endswith("z points") else f"{metric} (on {b.points})"
         rows.append({
             "case": case, "metric": shown_metric,
@@ -63,7 +63,7 @@ def headline_table(verdicts: pd.DataFrame, scores: pd.DataFrame) -> pd.DataFrame
                                                             + [f"{r.model} {_pm(r.value, r.u_val)}" for r in tied.itertuples()]),
             "worse": "; ".join(f"{r.model} {_pm(r.value, r.u_val)}" for r in worse.itertuples()) or "none",
             "best's u_dem / u_input / u_num": f"{b.u_dem:.2g} / {b.u_input:.2g} / {b.u_num:.2g}",
-            "DEM noise (+- its error, pairs)": _noise(noise.iloc[0]) if len(noise) else "n/a: one replica",
+            "DEM noise (+- its error, pairs)": _noise(score_rows.iloc[0]) if len(score_rows) else "n/a: one replica",
             "not predicted by": ", ".join(sorted(none.model)) or "none",
         })
     table = pd.DataFrame(rows).astype(object)

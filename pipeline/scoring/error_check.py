@@ -176,11 +176,10 @@ def halves_summary(halves: pd.DataFrame) -> str:
     point's blocks) against the 4.55 % a steady run gives, per kind (planar creep, rods)."""
     parts = []
     for kind, frame in (("planar creep", halves[halves.case != "intruder"]), ("rods", halves[halves.case == "intruder"])):
-        known = frame[np.isfinite(frame.z_normal.astype(float))]
-        if len(known):
-            beyond = int((known.z_normal.abs() > 2).sum())
-            parts.append(f"{kind}: {beyond} of {len(known)} beyond 2 ({0.0455 * len(known):.1f} expected), "
-                         f"mean z_normal {known.z_normal.mean():+.2f}")
+        beyond, known = scalar_checks.beyond_two(frame)
+        if known:
+            parts.append(f"{kind}: {beyond} of {known} beyond 2 ({scalar_checks.STEADY_BEYOND_TWO * known:.1f} "
+                         f"expected), mean z_normal {frame.z_normal.astype(float).mean():+.2f}")
     return "halves: " + ("; ".join(parts) if parts else "no halves with known blocks")
 
 
@@ -201,7 +200,7 @@ def main(argv: list[str] | None = None) -> int:
         atomic.write_csv(halves, args.halves_out)
         for (case, run), frame in halves.groupby(["case", "run"]):
             print(f"{case}/{run}: creep halves at {len(frame)} depths, mean z {frame.z.mean():+.2f}, "
-                  f"chi2 {np.mean(frame.z ** 2):.2f}, beyond 2 (normal-equivalent) {int((frame.z_normal.abs() > 2).sum())}")
+                  f"chi2 {np.mean(frame.z ** 2):.2f}, beyond 2 (normal-equivalent) {scalar_checks.beyond_two(frame)[0]}")
         print(halves_summary(halves))
     if args.resolution_out is not None:
         resolution = creep_resolution(args.fields)

@@ -24,6 +24,8 @@ from pipeline.common.statistics import error_scale, pooled_chi2  # noqa: F401 (e
 
 SCALAR_COLUMNS = ["case", "field", "chi2", "chi2_err", "pairs", "points", "replicas", "dof", "p_value",
                   "correlation_points", "error_scale"]
+#: Fraction of a normal deviate beyond 2 in size: what ``|z_normal| > 2`` counts read against.
+STEADY_BEYOND_TWO = float(2.0 * stats.norm.sf(2.0))
 HALVES_COLUMNS = ["case", "run", "depth_over_d", "first_over_v", "first_err_over_v", "second_over_v",
                   "second_err_over_v", "log10_change", "log10_change_err", "z", "dof", "p_value", "z_normal"]
 
@@ -88,6 +90,13 @@ def halves_row(case: str, run: str, depth_over_d: float, first: float, first_err
             "second_over_v": second / wall_speed, "second_err_over_v": second_err / wall_speed,
             "log10_change": change, "log10_change_err": change_err, "z": z,
             "dof": dof, "p_value": p_value, "z_normal": z_normal}
+
+
+def beyond_two(halves: pd.DataFrame) -> tuple[int, int]:
+    """Rows of a halves table whose ``|z_normal|`` exceeds 2, and the rows whose z_normal is known."""
+    known = halves.z_normal.astype(float)
+    known = known[np.isfinite(known)]
+    return int((known.abs() > 2.0).sum()), int(known.size)
 
 
 def creep_halves(ds: xr.Dataset) -> pd.DataFrame:
