@@ -28,6 +28,39 @@ def integrated_autocorrelation_time(series: np.ndarray, window_factor: float = 5
     return np.where(np.isfinite(out), np.maximum(out, 0.5), np.nan)
 
 
+def normal_equivalent(t: float, dof: float) -> float:
+    """The normal deviate with the same two-sided probability as Student's ``t`` with ``dof``
+    degrees of freedom, signed as ``t``: a difference whose errors come from few blocks reads as a
+    normal deviate (|t| > 2 is 18 % likely at 2 dof, the result beyond 2 is 4.55 %). NaN where
+    ``dof`` is not finite or below 1."""
+    if not (math.isfinite(t) and math.isfinite(dof) and dof >= 1.0):
+        return math.nan
+    p_value = float(2.0 * stats.t.sf(abs(t), dof))
+    return math.copysign(float(stats.norm.isf(0.5 * p_value)), t)
+
+
+def welch_dof(var_a: float, var_b: float, blocks_a: float, blocks_b: float) -> float:
+    """Welch-Satterthwaite degrees of freedom of a difference of two batch means whose variances
+    ``var_a``, ``var_b`` come from ``blocks_a``, ``blocks_b`` blocks (``blocks - 1`` dof each)."""
+    return (var_a + var_b) ** 2 / (var_a ** 2 / (blocks_a - 1.0) + var_b ** 2 / (blocks_b - 1.0))
+
+
+def chi2_of_deviates(deviates: Iterable[float]) -> dict[str, float]:
+    """The mean square of normal deviates (``chi2``, 1 if they are standard normal), in the columns
+    of :func:`pooled_chi2`: one degree of freedom a deviate, ``chi2_err = sqrt(2 / dof)``, the
+    two-sided chi-squared probability of a departure from 1 at least as large."""
+    z = np.asarray([v for v in deviates if math.isfinite(v)], dtype=float)
+    if z.size == 0:
+        return {"chi2": math.nan, "chi2_err": math.nan, "pairs": 0, "points": 0, "replicas": 0,
+                "dof": math.nan, "p_value": math.nan, "correlation_points": math.nan, "error_scale": math.nan}
+    total, dof = float(np.sum(z ** 2)), int(z.size)
+    chi2, chi2_err = total / dof, math.sqrt(2.0 / dof)
+    cdf = float(stats.chi2.cdf(total, dof))
+    return {"chi2": chi2, "chi2_err": chi2_err, "pairs": dof, "points": dof, "replicas": 2, "dof": float(dof),
+            "p_value": float(min(1.0, 2.0 * min(cdf, 1.0 - cdf))), "correlation_points": math.nan,
+            "error_scale": error_scale(chi2, chi2_err)}
+
+
 def error_scale(chi2: float, chi2_err: float) -> float:
     """``sqrt(chi2)`` where it departs from 1 by more than twice its error, else 1 (NaN: no check)."""
     if not (math.isfinite(chi2) and math.isfinite(chi2_err)):

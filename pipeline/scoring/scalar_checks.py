@@ -20,7 +20,8 @@ import pandas as pd
 import xarray as xr
 from scipy import stats
 
-from pipeline.common.statistics import error_scale, pooled_chi2  # noqa: F401 (error_scale: used by error_check)
+from pipeline.common.statistics import (chi2_of_deviates, error_scale, normal_equivalent,  # noqa: F401 (error_scale: used by error_check)
+                                        pooled_chi2, welch_dof)
 
 SCALAR_COLUMNS = ["case", "field", "chi2", "chi2_err", "pairs", "points", "replicas", "dof", "p_value",
                   "correlation_points", "error_scale"]
@@ -82,9 +83,9 @@ def halves_row(case: str, run: str, depth_over_d: float, first: float, first_err
     z = change / change_err
     dof = p_value = z_normal = math.nan
     if blocks >= 2:
-        dof = (rel_a ** 2 + rel_b ** 2) ** 2 / ((rel_a ** 4 + rel_b ** 4) / (blocks - 1.0))
+        dof = welch_dof(rel_a ** 2, rel_b ** 2, blocks, blocks)
         p_value = float(2.0 * stats.t.sf(abs(z), dof))
-        z_normal = math.copysign(float(stats.norm.isf(0.5 * p_value)), z)
+        z_normal = normal_equivalent(z, dof)
     return {"case": case, "run": run, "depth_over_d": depth_over_d,
             "first_over_v": first / wall_speed, "first_err_over_v": first_err / wall_speed,
             "second_over_v": second / wall_speed, "second_err_over_v": second_err / wall_speed,
@@ -146,9 +147,21 @@ def rod_halves(runs: list[dict]) -> pd.DataFrame:
 
 
 def rod_halves_row(runs: list[dict]) -> dict:
-    """``rod_speed_halves``: the rods' first-half and second-half speeds as a pair per run, pooled
-    (one degree of freedom each). It tests the time error alone, the halves sharing the rod's
-    neighbourhood; ``rod_speed`` (the replicas) adds the frozen packing's scatter."""
-    groups = [(np.array([h["first"], h["second"]], dtype=float), np.array([h["first_err"], h["second_err"]], dtype=float))
-              for _, _, h in _moving_rod_halves(runs)]
-    return {"case": runs[0]["case"] if runs else "intruder", "field": "rod_speed_halves", **pooled_chi2(groups)}
+    """``rod_speed_halves``: each moving sheared rod's first-half against second-half speed, one
+    deviate per run. It tests the time error alone, the halves sharing the rod's neighbourhood;
+    ``rod_speed`` (the replicas) adds the frozen packing's scatter.
+
+    Each half's error is a batch-means error of ``blocks`` blocks, so ``(second - first) / error``
+    is Student's t with the Welch-Satterthwaite dof (about 14 at 8 blocks a half), whose square
+    averages dof / (dof - 2) = 1.17 in a steady run, not 1: each t is read as its normal
+    equivalent (:func:`pipeline.common.statistics.normal_equivalent`) and ``chi2`` is their mean
+    square. A record without ``blocks`` (from before it was recorded) takes its t as normal."""
+    deviates = []
+    for _, _, h in _moving_rod_halves(runs):
+        a, ea, b, eb = (float(h[k]) for k in ("first", "first_err", "second", "second_err"))
+        if not (ea > 0 and eb > 0 and all(map(math.isfinite, (a, ea, b, eb)))):
+            continue
+        t = (b - a) / math.hypot(ea, eb)
+        blocks = float(h.get("blocks", math.nan))
+        deviates.append(normal_equivalent(t, welch_dof(ea ** 2, eb ** 2, blocks, blocks)) if blocks >= 2 else t)
+    return {"case": runs[0]["case"] if runs else "intruder", "field": "rod_speed_halves", **chi2_of_deviates(deviates)}

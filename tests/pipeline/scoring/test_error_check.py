@@ -115,3 +115,24 @@ def test_halves_z_reads_against_students_t(rng) -> None:
     assert beyond_z > expected + 6 * np.sqrt(expected), beyond_z
     # Blocks not recorded: no dof, and no claim.
     assert np.isnan(halves_row("c", "r1", 5.0, 1e-3, 1e-5, 1e-3, 1e-5, 0.1)["z_normal"])
+
+
+def test_rod_halves_read_their_few_blocks_as_students_t(rng) -> None:
+    """Steady rods whose halves' errors come from 8 blocks each: the raw mean square of the halves'
+    t is dof / (dof - 2) ~ 1.17, not 1; read as normal equivalents, ``rod_speed_halves`` is 1 within
+    3 of its errors (2000 runs: the 1.17 bias is 5 errors away, so the test can tell them apart)."""
+    from pipeline.scoring.scalar_checks import rod_halves_row
+
+    blocks, runs, raw = 8, [], []
+    for k in range(2000):
+        halves: dict[str, float] = {"blocks": blocks}
+        for half in ("first", "second"):
+            block_speeds = 1e-3 * (1.0 + 0.1 * rng.standard_normal(blocks))
+            halves[half], halves[f"{half}_err"] = block_speeds.mean(), block_speeds.std(ddof=1) / np.sqrt(blocks)
+        raw.append((halves["second"] - halves["first"]) ** 2 / (halves["first_err"] ** 2 + halves["second_err"] ** 2))
+        rod = {"control": False, "arrested": False, "depth_target_over_d": 7.0, "speed": 1e-3,
+               "speed_over_wall_speed": 1e-2, "halves": halves}
+        runs.append({"case": "intruder", "run": f"D7-r{k + 1}", "intruder": rod})
+    row = rod_halves_row(runs)
+    assert row["dof"] == 2000 and abs(row["chi2"] - 1.0) < 3 * row["chi2_err"], row
+    assert np.mean(raw) - 1.0 > 3 * row["chi2_err"], np.mean(raw)
