@@ -38,6 +38,25 @@ def log_speed_error(u: np.ndarray, err: np.ndarray) -> np.ndarray:
     return np.maximum(np.where(np.isfinite(raw), raw, np.inf), LOG_SPEED_ERROR_FLOOR)
 
 
+def resolved_walk(u: np.ndarray, err: np.ndarray) -> tuple[int, np.ndarray, int]:
+    """The walk of :func:`decades_resolved`: the fastest point's index, the indices walked from it
+    towards the slower end that are resolved (above 2 standard errors, in walking order), and the
+    first index that is not (-1 when the walk reaches the profile's end)."""
+    u = np.asarray(u, dtype=float)
+    err = np.asarray(err, dtype=float)
+    finite = np.isfinite(u)
+    if not finite.any():
+        return -1, np.array([], dtype=int), -1
+    top = int(np.nanargmax(np.where(finite, u, -np.inf)))
+    # Walk towards the slower end: the side whose far end is slower.
+    left, right = u[:top + 1][::-1], u[top:]
+    side = -1 if np.nanmin(left) < np.nanmin(right) else 1
+    order = np.arange(top, -1, -1) if side < 0 else np.arange(top, u.size)
+    resolved = np.isfinite(u[order]) & np.isfinite(err[order]) & (u[order] > 2.0 * err[order])
+    stop = int(np.argmin(resolved)) if not resolved.all() else order.size
+    return top, order[:stop], int(order[stop]) if stop < order.size else -1
+
+
 def decades_resolved(u: np.ndarray, err: np.ndarray, wall_speed: float) -> tuple[float, float]:
     """Decades of u / V resolved above 2 standard errors, and the slowest resolved u / V.
 
@@ -48,22 +67,10 @@ def decades_resolved(u: np.ndarray, err: np.ndarray, wall_speed: float) -> tuple
     V)``; ``(0, nan)`` when nothing is resolved.
     """
     u = np.asarray(u, dtype=float)
-    err = np.asarray(err, dtype=float)
-    finite = np.isfinite(u)
-    if not finite.any():
+    top, walked, _ = resolved_walk(u, err)
+    if walked.size == 0:
         return 0.0, float("nan")
-    top = int(np.nanargmax(np.where(finite, u, -np.inf)))
-    # Walk towards the slower end: the side whose far end is slower.
-    left, right = u[:top + 1][::-1], u[top:]
-    side = -1 if np.nanmin(left) < np.nanmin(right) else 1
-    order = np.arange(top, -1, -1) if side < 0 else np.arange(top, u.size)
-    slowest = math.nan
-    for i in order:
-        if not (np.isfinite(u[i]) and np.isfinite(err[i]) and u[i] > 2.0 * err[i]):
-            break
-        slowest = float(u[i]) if math.isnan(slowest) else min(slowest, float(u[i]))
-    if math.isnan(slowest):
-        return 0.0, float("nan")
+    slowest = float(np.min(u[walked]))
     return float(math.log10(u[top] / slowest)), slowest / wall_speed
 
 
@@ -75,7 +82,16 @@ def replica_mean(depth: np.ndarray, replicas: list[tuple[np.ndarray, np.ndarray,
     beyond its own range: the replicas' walls differ slightly). The error is the larger of the
     combined stated errors and the replicas' scatter over sqrt(n) (replicas differ by more than
     their stated errors where the packing's structure is frozen, or their random rough walls
-    differ)."""
+    differ): :func:`replica_mean_parts`."""
+    mean, stated, scatter = replica_mean_parts(depth, replicas)
+    return mean, np.fmax(stated, scatter)
+
+
+def replica_mean_parts(depth: np.ndarray, replicas: list[tuple[np.ndarray, np.ndarray, np.ndarray]]
+                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`replica_mean`'s mean and its two errors apart: the combined stated errors
+    ``sqrt(sum err_r^2) / n`` (the time average's, falling with the production's length) and the
+    replicas' scatter ``sd / sqrt(n)`` (falling with their number only)."""
     values, errors = [], []
     for own, value, error in replicas:
         order = np.argsort(own)
@@ -83,5 +99,4 @@ def replica_mean(depth: np.ndarray, replicas: list[tuple[np.ndarray, np.ndarray,
         errors.append(np.interp(depth, own[order], error[order], left=np.nan, right=np.nan))
     values, errors = np.array(values), np.array(errors)
     n = values.shape[0]
-    err = np.fmax(np.sqrt(np.sum(errors**2, axis=0)) / n, values.std(axis=0, ddof=1) / math.sqrt(n))
-    return values.mean(axis=0), err
+    return values.mean(axis=0), np.sqrt(np.sum(errors**2, axis=0)) / n, values.std(axis=0, ddof=1) / math.sqrt(n)

@@ -31,7 +31,7 @@ from scipy import stats
 from pipeline.common.statistics import integrated_autocorrelation_time
 from pipeline.common import atomic
 from pipeline.scoring import scalar_checks
-from pipeline.common.observables import creep_speed, decades_resolved, replica_mean
+from pipeline.common.observables import creep_speed, decades_resolved, replica_mean_parts, resolved_walk
 from pipeline.scoring.replicas import align_replicas, interior, top_plane
 
 FIELDS = ("u_x", "u_x_disp", "nu", "sigma_zz", "sigma_xz", "mu")
@@ -99,15 +99,26 @@ def creep_resolution(paths: list[Path]) -> pd.DataFrame:
                 row[f"slowest_over_v_{name}"] = slowest
             rows.append(row)
     rows.extend(replica_mean_resolution(paths))
-    return pd.DataFrame(rows, columns=["case", "run", *(f"{k}_{s}" for s in ("u_x", "u_x_disp", "best")
-                                                         for k in ("decades", "slowest_over_v"))])
+    return pd.DataFrame(rows, columns=RESOLUTION_COLUMNS)
+
+
+#: Columns of ``validation/creep_resolution.csv``: per run, then per case's replica mean.
+RESOLUTION_COLUMNS = ["case", "run", *(f"{k}_{s}" for s in ("u_x", "u_x_disp", "best") for k in ("decades", "slowest_over_v")),
+                      "deepest_interior_over_d", "decades_in_bed", "limited_by"]
 
 
 def replica_mean_resolution(paths: list[Path]) -> list[dict[str, object]]:
     """The same for the mean of each case's replicas (run ids ``r<k>``), aligned by depth below
     the top wall: the case's creep profile. Its error is the larger of the combined stated errors
     and the replicas' scatter over sqrt(n) (the replicas differ by more than their stated errors
-    where the packing's structure is frozen)."""
+    where the packing's structure is frozen).
+
+    What stops the resolved stretch, ``limited_by``: ``wall margin`` where it reaches the deepest
+    point inside the walls' margin (``deepest_interior_over_d``, d below the top contact plane:
+    no precision resolves more of this bed, whose mean there spans ``decades_in_bed``),
+    ``stated errors`` where the combined time errors exceed the scatter at the first unresolved
+    point (a longer production or more replicas resolve deeper), ``replica scatter`` where the
+    scatter does (only more replicas do)."""
     rows = []
     for case in sorted({p.parent.name for p in paths}):
         files = sorted(p for p in paths if p.parent.name == case and p.stem.startswith("r") and p.stem[1:].isdigit())
@@ -121,11 +132,21 @@ def replica_mean_resolution(paths: list[Path]) -> list[dict[str, object]]:
             mask = interior(first)
             depth = top_plane(first) - first.z.values[mask]
             n = len(files)
-            mean, err = replica_mean(depth, [(top_plane(ds) - ds.z.values, *creep_speed(ds)[:2])
-                                             for ds in sets])
+            mean, stated, scatter = replica_mean_parts(depth, [(top_plane(ds) - ds.z.values, *creep_speed(ds)[:2])
+                                                               for ds in sets])
+            err = np.fmax(stated, scatter)
             # Ordered from the bottom up like a profile: depth decreasing.
             decades, slowest = decades_resolved(mean[::-1], err[::-1], float(first.attrs["wall_speed"]))
-            rows.append({"case": case, "run": f"mean of {n} replicas", "decades_best": decades, "slowest_over_v_best": slowest})
+            top, _, stop = resolved_walk(mean, err)
+            deepest = int(np.nanargmax(np.where(np.isfinite(mean), depth, -np.inf)))
+            if stop < 0:
+                limited_by = "wall margin"
+            else:
+                limited_by = "stated errors" if stated[stop] >= scatter[stop] else "replica scatter"
+            in_bed = (float(math.log10(mean[top] / mean[deepest])) if top >= 0 and mean[deepest] > 0 else math.nan)
+            rows.append({"case": case, "run": f"mean of {n} replicas", "decades_best": decades, "slowest_over_v_best": slowest,
+                         "deepest_interior_over_d": float(depth[deepest] / float(first.attrs["d"])),
+                         "decades_in_bed": in_bed, "limited_by": limited_by})
         finally:
             for ds in sets:
                 ds.close()

@@ -136,3 +136,49 @@ def test_rod_halves_read_their_few_blocks_as_students_t(rng) -> None:
     row = rod_halves_row(runs)
     assert row["dof"] == 2000 and abs(row["chi2"] - 1.0) < 3 * row["chi2_err"], row
     assert np.mean(raw) - 1.0 > 3 * row["chi2_err"], np.mean(raw)
+
+
+def creep_fields(tmp_path, case: str, stated: float, lengths: tuple[float, ...]) -> list:
+    """Replica fields files of a creeping bed, one per decay length ``lengths`` (in d): u/V =
+    0.5 exp(-depth / length) below the top contact plane (20 d of bed, contact planes at 0 and
+    0.04 m; replicas of different lengths stand for frozen packings, apart more the deeper),
+    stated errors ``stated`` V everywhere."""
+    d, v = 0.002, 0.1
+    z = np.linspace(0.0, 0.04, 161)
+    depth = (0.04 - z) / d
+    folder = tmp_path / "fields" / case
+    folder.mkdir(parents=True)
+    paths = []
+    for k, length in enumerate(lengths):
+        u = 0.5 * v * np.exp(-depth / length)
+        err = np.full(z.size, stated * v)
+        ds = xr.Dataset({"u_x": ("z", u), "u_x_err": ("z", 10 * err), "u_x_disp": ("z", u), "u_x_disp_err": ("z", err)},
+                        coords={"z": z}, attrs={"d": d, "wall_speed": v, "gravity": 9.81, "z_top_contact_plane": 0.04,
+                                                "z_bottom_contact_plane": 0.0, "z_top_wall": 0.0408, "z_bottom_wall": -0.0008})
+        paths.append(folder / f"r{k + 1}.nc")
+        ds.to_netcdf(paths[-1])
+    return paths
+
+
+def test_replica_mean_resolution_names_what_stops_it(tmp_path) -> None:
+    """Exponential creep, u/V = 0.5 exp(-depth / 1.5 d), inside the 1 d wall margins (1-19 d), three replicas:
+    - errors of 1e-9 V, replicas alike: resolved to the margin, over the whole bed's
+      log10(exp(18 / 1.5)) = 5.21 decades (``wall margin``);
+    - errors of 1e-4 V: resolved while u > 2e-4 / sqrt(3) V, to 12.6 d below the top:
+      log10(exp(11.6 / 1.5)) = 3.35 decades (``stated errors``);
+    - errors of 1e-9 V, decay lengths 1.0, 1.5 and 2.5 d: the replicas part with depth until
+      their scatter stops the walk (``replica scatter``) above the margin."""
+    from pipeline.scoring.error_check import replica_mean_resolution
+
+    table = {case: replica_mean_resolution(creep_fields(tmp_path, case, stated, lengths))[0]
+             for case, stated, lengths in (("margin", 1e-9, (1.5,) * 3), ("stated", 1e-4, (1.5,) * 3),
+                                           ("scatter", 1e-9, (1.0, 1.5, 2.5)))}
+    assert table["margin"]["limited_by"] == "wall margin"
+    assert abs(table["margin"]["decades_best"] - 18.0 / 1.5 / math.log(10)) < 0.01
+    assert table["margin"]["decades_in_bed"] == table["margin"]["decades_best"]
+    assert abs(table["margin"]["deepest_interior_over_d"] - 19.0) < 0.01
+    assert table["stated"]["limited_by"] == "stated errors"
+    expected = math.log(0.5 / (2e-4 / math.sqrt(3))) / math.log(10) - 1.0 / 1.5 / math.log(10)  # from 1 d down
+    assert abs(table["stated"]["decades_best"] - expected) < 0.125 / 1.5 / math.log(10) + 1e-9  # one 0.125 d grid step
+    assert table["scatter"]["limited_by"] == "replica scatter"
+    assert 0 < table["scatter"]["decades_best"] < table["scatter"]["decades_in_bed"]
