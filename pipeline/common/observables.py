@@ -68,9 +68,14 @@ def decades_resolved(u: np.ndarray, err: np.ndarray, wall_speed: float) -> tuple
     """
     u = np.asarray(u, dtype=float)
     top, walked, _ = resolved_walk(u, err)
+    return resolution(u, top, walked, wall_speed)
+
+
+def resolution(u: np.ndarray, top: int, walked: np.ndarray, wall_speed: float) -> tuple[float, float]:
+    """:func:`decades_resolved` from a walk already made (:func:`resolved_walk`)."""
     if walked.size == 0:
         return 0.0, float("nan")
-    slowest = float(np.min(u[walked]))
+    slowest = float(np.min(np.asarray(u, dtype=float)[walked]))
     return float(math.log10(u[top] / slowest)), slowest / wall_speed
 
 

@@ -28,15 +28,15 @@ def integrated_autocorrelation_time(series: np.ndarray, window_factor: float = 5
     return np.where(np.isfinite(out), np.maximum(out, 0.5), np.nan)
 
 
-def normal_equivalent(t: float, dof: float) -> float:
+def normal_equivalent(t: float, dof: float) -> tuple[float, float]:
     """The normal deviate with the same two-sided probability as Student's ``t`` with ``dof``
-    degrees of freedom, signed as ``t``: a difference whose errors come from few blocks reads as a
-    normal deviate (|t| > 2 is 18 % likely at 2 dof, the result beyond 2 is 4.55 %). NaN where
-    ``dof`` is not finite or below 1."""
+    degrees of freedom, signed as ``t``, and that probability: a difference whose errors come from
+    few blocks reads as a normal deviate (|t| > 2 is 18 % likely at 2 dof, the result beyond 2 is
+    4.55 %). ``(nan, nan)`` where ``dof`` is not finite or below 1."""
     if not (math.isfinite(t) and math.isfinite(dof) and dof >= 1.0):
-        return math.nan
+        return math.nan, math.nan
     p_value = float(2.0 * stats.t.sf(abs(t), dof))
-    return math.copysign(float(stats.norm.isf(0.5 * p_value)), t)
+    return math.copysign(float(stats.norm.isf(0.5 * p_value)), t), p_value
 
 
 def welch_dof(var_a: float, var_b: float, blocks_a: float, blocks_b: float) -> float:
@@ -48,17 +48,27 @@ def welch_dof(var_a: float, var_b: float, blocks_a: float, blocks_b: float) -> f
 def chi2_of_deviates(deviates: Iterable[float]) -> dict[str, float]:
     """The mean square of normal deviates (``chi2``, 1 if they are standard normal), in the columns
     of :func:`pooled_chi2`: one degree of freedom a deviate, ``chi2_err = sqrt(2 / dof)``, the
-    two-sided chi-squared probability of a departure from 1 at least as large."""
+    two-sided chi-squared probability of a departure from 1 at least as large; ``replicas`` is the
+    caller's to say."""
     z = np.asarray([v for v in deviates if math.isfinite(v)], dtype=float)
     if z.size == 0:
-        return {"chi2": math.nan, "chi2_err": math.nan, "pairs": 0, "points": 0, "replicas": 0,
-                "dof": math.nan, "p_value": math.nan, "correlation_points": math.nan, "error_scale": math.nan}
-    total, dof = float(np.sum(z ** 2)), int(z.size)
+        return dict(NO_CHECK)
+    return _chi2_row(float(np.sum(z ** 2)), int(z.size), pairs=int(z.size), points=int(z.size), replicas=math.nan)
+
+
+def _chi2_row(total: float, dof: int, **counts: float) -> dict[str, float]:
+    """The check's row from a chi-squared ``total`` over ``dof`` degrees of freedom."""
     chi2, chi2_err = total / dof, math.sqrt(2.0 / dof)
     cdf = float(stats.chi2.cdf(total, dof))
-    return {"chi2": chi2, "chi2_err": chi2_err, "pairs": dof, "points": dof, "replicas": 2, "dof": float(dof),
+    return {"chi2": chi2, "chi2_err": chi2_err, **counts, "dof": float(dof),
             "p_value": float(min(1.0, 2.0 * min(cdf, 1.0 - cdf))), "correlation_points": math.nan,
             "error_scale": error_scale(chi2, chi2_err)}
+
+
+#: The row of a check with nothing to check (fewer than two values in every group).
+NO_CHECK: dict[str, float] = {"chi2": math.nan, "chi2_err": math.nan, "pairs": 0, "points": 0, "replicas": 0,
+                              "dof": math.nan, "p_value": math.nan, "correlation_points": math.nan,
+                              "error_scale": math.nan}
 
 
 def error_scale(chi2: float, chi2_err: float) -> float:
@@ -85,11 +95,5 @@ def pooled_chi2(groups: Iterable[tuple[np.ndarray, np.ndarray]]) -> dict[str, fl
         pairs += values.size * (values.size - 1) // 2
         replicas = max(replicas, values.size)
     if dof == 0:
-        return {"chi2": math.nan, "chi2_err": math.nan, "pairs": 0, "points": points, "replicas": replicas,
-                "dof": math.nan, "p_value": math.nan, "correlation_points": math.nan, "error_scale": math.nan}
-    chi2 = total / dof
-    cdf = float(stats.chi2.cdf(total, dof))
-    chi2_err = math.sqrt(2.0 / dof)
-    return {"chi2": chi2, "chi2_err": chi2_err, "pairs": pairs, "points": points, "replicas": replicas,
-            "dof": float(dof), "p_value": float(min(1.0, 2.0 * min(cdf, 1.0 - cdf))), "correlation_points": math.nan,
-            "error_scale": error_scale(chi2, chi2_err)}
+        return dict(NO_CHECK) | {"points": points, "replicas": replicas}
+    return _chi2_row(total, dof, pairs=pairs, points=points, replicas=replicas)

@@ -31,7 +31,7 @@ from scipy import stats
 from pipeline.common.statistics import integrated_autocorrelation_time
 from pipeline.common import atomic
 from pipeline.scoring import scalar_checks
-from pipeline.common.observables import creep_speed, decades_resolved, replica_mean_parts, resolved_walk
+from pipeline.common.observables import creep_speed, decades_resolved, replica_mean_parts, resolution, resolved_walk
 from pipeline.scoring.replicas import align_replicas, interior, top_plane
 
 FIELDS = ("u_x", "u_x_disp", "nu", "sigma_zz", "sigma_xz", "mu")
@@ -135,9 +135,8 @@ def replica_mean_resolution(paths: list[Path]) -> list[dict[str, object]]:
             mean, stated, scatter = replica_mean_parts(depth, [(top_plane(ds) - ds.z.values, *creep_speed(ds)[:2])
                                                                for ds in sets])
             err = np.fmax(stated, scatter)
-            # Ordered from the bottom up like a profile: depth decreasing.
-            decades, slowest = decades_resolved(mean[::-1], err[::-1], float(first.attrs["wall_speed"]))
-            top, _, stop = resolved_walk(mean, err)
+            top, walked, stop = resolved_walk(mean, err)
+            decades, slowest = resolution(mean, top, walked, float(first.attrs["wall_speed"]))
             deepest = int(np.nanargmax(np.where(np.isfinite(mean), depth, -np.inf)))
             if stop < 0:
                 limited_by = "wall margin"

@@ -84,8 +84,7 @@ def halves_row(case: str, run: str, depth_over_d: float, first: float, first_err
     dof = p_value = z_normal = math.nan
     if blocks >= 2:
         dof = welch_dof(rel_a ** 2, rel_b ** 2, blocks, blocks)
-        p_value = float(2.0 * stats.t.sf(abs(z), dof))
-        z_normal = normal_equivalent(z, dof)
+        z_normal, p_value = normal_equivalent(z, dof)
     return {"case": case, "run": run, "depth_over_d": depth_over_d,
             "first_over_v": first / wall_speed, "first_err_over_v": first_err / wall_speed,
             "second_over_v": second / wall_speed, "second_err_over_v": second_err / wall_speed,
@@ -163,5 +162,6 @@ def rod_halves_row(runs: list[dict]) -> dict:
             continue
         t = (b - a) / math.hypot(ea, eb)
         blocks = float(h.get("blocks", math.nan))
-        deviates.append(normal_equivalent(t, welch_dof(ea ** 2, eb ** 2, blocks, blocks)) if blocks >= 2 else t)
-    return {"case": runs[0]["case"] if runs else "intruder", "field": "rod_speed_halves", **chi2_of_deviates(deviates)}
+        deviates.append(normal_equivalent(t, welch_dof(ea ** 2, eb ** 2, blocks, blocks))[0] if blocks >= 2 else t)
+    return {"case": runs[0]["case"] if runs else "intruder", "field": "rod_speed_halves",
+            **chi2_of_deviates(deviates), "replicas": 2}
