@@ -21,6 +21,7 @@ rule report:
         decay_length=f"{ROOT}/validation/decay_length.csv",
         error_check=f"{ROOT}/validation/error_check.csv",
         creep_resolution=f"{ROOT}/validation/creep_resolution.csv",
+        creep_halves=f"{ROOT}/validation/creep_halves.csv",
         cost=f"{ROOT}/cost_accuracy.csv",
         intruder_models=layout.intruder_model_paths(config),
         mesh=f"{ROOT}/stability/mesh_convergence.csv",

@@ -14,7 +14,8 @@ REPORT_FIGURES = ("decay_length", "profiles", "calibration", "pareto", "well_pos
 #: Category of each figure in Snakemake's report: the stage that made what it shows.
 REPORT_CATEGORIES = {"decay_length": "Validation", "profiles": "Scoring", "pareto": "Scoring", "calibration": "Calibration",
                      "well_posedness": "Stability", "mesh_convergence": "Stability", "wall_series": "DEM",
-                     "dem_convergence": "DEM", "intruder": "Intruder", "intruder_field": "Intruder", "intruder_force": "Intruder", "verdict": "Validation"}
+                     "dem_convergence": "DEM", "intruder": "Intruder", "intruder_field": "Intruder", "intruder_force": "Intruder", "verdict": "Validation",
+                     "creep_halves": "DEM"}
 
 
 def root(config: dict[str, Any]) -> Path:
@@ -38,6 +39,7 @@ def report_figures(config: dict[str, Any]) -> list[str]:
     return (list(REPORT_FIGURES) + (["intruder", "intruder_field"] if intruder_cases(config) else [])
             + (["intruder_force"] if sweep else [])
             + (["dem_convergence"] if convergence_cases(config) else [])
+            + (["creep_halves"] if creeping_cases(config) else [])
             + (["verdict"] if validation_cases(config) else []))
 
 
@@ -69,6 +71,12 @@ def model_names(config: dict[str, Any]) -> list[str]:
 def scored_cases(config: dict[str, Any]) -> list[str]:
     """Planar cases the 1D continuum models are solved on and scored against (not the rheometer)."""
     return [case for case, spec in config["cases"].items() if case != "rheometer" and spec["geometry"] == "planar_shear"]
+
+
+def creeping_cases(config: dict[str, Any]) -> list[str]:
+    """Scored planar cases with gravity: a creeping zone below the shear band, whose production's
+    halves the error check compares (``validation/creep_halves.csv``)."""
+    return [case for case in scored_cases(config) if float(config["cases"][case].get("gravity", 0.0)) > 0]
 
 
 def model_paths(config: dict[str, Any]) -> list[str]:

@@ -25,10 +25,11 @@ from pipeline.common import atomic
 from pipeline.common.config import dem_runs, load_config
 from pipeline.report.html import figure_html, page, table_html
 from pipeline.common.provenance import software_versions
-from pipeline.common.layout import (convergence_cases, convergence_paths, fields_paths, intruder_cases, model_names, scored_cases,
+from pipeline.common.layout import (convergence_cases, convergence_paths, creeping_cases, fields_paths, intruder_cases, model_names, scored_cases,
                                     shared_fill_paths)
 from pipeline.dem.wall_series import read_wall_series
 from pipeline.report.creep_section import decay_length_section
+from pipeline.report.halves_section import creep_halves_section
 from pipeline.report.intruder_section import intruder_section
 from pipeline.report.scores_section import score_section
 from pipeline.report.style import MODEL_STYLE
@@ -417,6 +418,7 @@ def build_report(config: dict[str, Any], figure_dir: Path | None = None) -> str:
         "this large if the errors hold.</p>",
         table_html(pd.read_csv(root / "validation" / "error_check.csv")) if (root / "validation" / "error_check.csv").exists() else "",
         creep_resolution_section(root),
+        creep_halves_section(root, figures) if creeping_cases(config) else "",
         "<h2>Provenance</h2>",
         table_html(pd.DataFrame(sorted(software_versions().items()), columns=["software", "version"])),
         f"<details><summary>configuration</summary><pre>{html.escape(json.dumps(config, indent=1))}</pre></details>",
