@@ -48,6 +48,7 @@ import yaml
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from pipeline.common import atomic  # noqa: E402
+from pipeline.common.observables import creep_half  # noqa: E402
 from pipeline.dem import precision  # noqa: E402
 from pipeline.dem.steady_state import band_speeds  # noqa: E402
 from pipeline.dem.wall_series import read_wall_series  # noqa: E402
@@ -69,44 +70,30 @@ def link_tree(source: Path, dest: Path) -> None:
     shutil.copytree(source / "dem", dest / "dem", copy_function=os.link, symlinks=True)
 
 
-def half_fields(ds: xr.Dataset, half: str) -> xr.Dataset:
-    """``ds`` with its displacement creep speed from one half of the production window."""
-    u, err = ds[f"u_x_disp_{half}_half"].values, ds[f"u_x_disp_{half}_half_err"].values
-    if "u_x_disp_err_structure" in ds:
-        err_total = np.fmax(err, ds["u_x_disp_err_structure"].values)
-    else:
-        err_total = err
-    out = ds.copy()
-    out["u_x_disp"] = ("z", u, dict(ds["u_x_disp"].attrs))
-    out["u_x_disp_err"] = ("z", err_total, dict(ds["u_x_disp_err"].attrs))
-    if "u_x_disp_err_time" in ds:
-        out["u_x_disp_err_time"] = ("z", err, dict(ds["u_x_disp_err_time"].attrs))
-    out.attrs["creep_from_half_window"] = half
-    return out
-
-
 def prepare(root: Path, config_path: Path, half: str, out: Path) -> None:
     """Link ``root`` to ``out``, replace its planar gravity fields by their ``half``-window creep,
     and write ``out/config.creep_age.yaml`` (``config_path`` with ``output_root: out``)."""
     link_tree(root, out)
     changed = 0
-    for path in sorted((out / "fields").glob("*/*.nc")):
+    # "whole" changes no fields: the same DEM, everything downstream rerun with today's code.
+    for path in sorted((out / "fields").glob("*/*.nc")) if half != "whole" else []:
         with xr.open_dataset(path) as source:
             ds = source.load()
         # The intruder's far-field profiles are not the planar beds' (their rods are scored on speed).
         if (float(ds.attrs.get("gravity", 0.0)) <= 0 or ds.attrs.get("case") == "intruder"
                 or f"u_x_disp_{half}_half" not in ds):
             continue
-        derived = half_fields(ds, half)
+        derived = creep_half(ds, half)
         path.unlink()  # a hard link: the source root's file must stay as it is
         atomic.write_netcdf(derived, path)
         changed += 1
-    if changed == 0:
+    if changed == 0 and half != "whole":
         raise SystemExit(f"creep_age: no planar gravity fields with half-window creep under {out / 'fields'}")
     config = yaml.safe_load(config_path.read_text())
     config["output_root"] = str(out)
     (out / "config.creep_age.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
-    print(f"creep_age: {changed} planar fields files now carry the {half} half's creep; run "
+    carries = "keep their whole window's creep" if half == "whole" else f"now carry the {half} half's creep"
+    print(f"creep_age: {changed or 'all'} planar fields files {carries}; run "
           f"`bash scripts/snakemake.sh --cores 2 --configfile {out / 'config.creep_age.yaml'}`")
 
 
@@ -213,7 +200,8 @@ def main(argv: list[str] | None = None) -> None:
     p = sub.add_parser("prepare", help="derive a root whose planar creep is one half of the production")
     p.add_argument("root", type=Path)
     p.add_argument("config", type=Path)
-    p.add_argument("--half", choices=("first", "second"), required=True)
+    p.add_argument("--half", choices=("first", "second", "whole"), required=True,
+                   help="the production half whose creep the planar fields carry (whole: the fields as they are)")
     p.add_argument("--out", type=Path, required=True)
     t = sub.add_parser("settle", help="give the derived root's rewritten config files the source's times")
     t.add_argument("root", type=Path)

@@ -89,6 +89,10 @@ def main(argv: list[str] | None = None) -> int:
             z = (ea["value"] - eb["value"]) / math.hypot(ea["error"], eb["error"])
             print(f"  {model} {name}: A {ea['value']:.4g} +- {ea['error']:.2g}, B {eb['value']:.4g} +- {eb['error']:.2g}: "
                   f"difference {z:+.2f} combined errors")
+            if "error_with_age" in ea and "error_with_age" in eb:
+                z_aged = (ea["value"] - eb["value"]) / math.hypot(ea["error_with_age"], eb["error_with_age"])
+                print(f"      with the creep's age in the errors (+- {ea['error_with_age']:.2g}, +- {eb['error_with_age']:.2g}): "
+                      f"{z_aged:+.2f}")
     print("\nper held-out case and metric: models that cannot be told apart from the best (best first)")
     keys = sorted(set(zip(va.case, va.metric)) | set(zip(vb.case, vb.metric)))
     rows = []

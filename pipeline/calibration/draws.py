@@ -15,8 +15,10 @@ correlations are carried into the predictions:
    moves with mu_s, which a draw of the length alone would miss;
 3. times ``exp(epsilon)``, epsilon normal with the length's replica error in log (the jackknife of
    the log values in ``params.json``, or the curvature error with one replica): the realisation
-   scatter of the calibration case, which the refit on one replica mean does not see; held to the
-   fit's own range (:data:`DRAW_BOUNDS`).
+   scatter of the calibration case, which the refit on one replica mean does not see; and, in
+   quadrature, the length's error from the creep's age (``age.error_age_log``, half the log
+   difference of the lengths fitted on the production's two halves: the deep creep slows as the
+   bed compacts, docs/dem.md); held to the fit's own range (:data:`DRAW_BOUNDS`).
 
 A draw whose refit fails (no admissible length, a solver failure) keeps no value for that model
 (``null``) and says why; the models stage then has no solution for it.
@@ -94,6 +96,14 @@ def relative_replica_error(entry: dict[str, Any]) -> float:
     return float(math.log1p(error / entry["value"]))
 
 
+def relative_draw_error(entry: dict[str, Any]) -> float:
+    """The width in log of the factor a draw multiplies the refitted length by: the realisation
+    error (:func:`relative_replica_error`) and the error from the creep's age (``age.error_age_log``
+    of ``params.json``, where the fields carry their window's halves) in quadrature."""
+    age = (entry.get("age") or {}).get("error_age_log", 0.0)
+    return float(math.hypot(relative_replica_error(entry), age))
+
+
 #: The range a drawn non-local parameter is held to: the fit's own bounds (NGF's A; the lengths in d).
 DRAW_BOUNDS = {"ngf": (0.01, 10.0), "cosserat": (0.05, 20.0), "volume_averaged": (0.05, 20.0)}
 
@@ -110,7 +120,7 @@ def draw_ensemble(params: dict[str, Any], nonlocal_paths: list[Path], settings: 
             values, ratio, rejected = draw_local(params, rng)
             rejected_total += rejected
             # Independent of the refit's outcome: the realisation factors are drawn first.
-            factors = {m: math.exp(float(rng.normal(0.0, relative_replica_error(params["nonlocal"][m][name]))))
+            factors = {m: math.exp(float(rng.normal(0.0, relative_draw_error(params["nonlocal"][m][name]))))
                        for m, name in NONLOCAL_PARAMETER.items() if m in params.get("nonlocal", {})}
             draw: dict[str, Any] = {"draw": k, "values": values, "sigma_zz_over_p": ratio, "nonlocal": {},
                                     "refit": {}, "failed": {}}

@@ -14,6 +14,14 @@ error ``sqrt((n - 1) / n * sum_i (theta_(i) - theta_(.))^2)`` is the realisation
 with other seeds would show. A length's ``error`` is the larger of the jackknife and the curvature
 error (with 3 replicas the jackknife has 2 degrees of freedom and may by chance come out small);
 ``params.json`` records both, the per-replica fits and the leave-one-out values.
+
+The deep creep is not steady over the production: it slows as the bed compacts (docs/dem.md, "The
+deep creep ages"), and a length fitted on it depends on the age of the creep it was fitted on.
+Where the fields carry the creep of their window's two halves, each length is also fitted on the
+replicas' mean creep of the first half and of the second (:func:`age_entry`): half their log
+difference, ``error_age_log``, is the length's uncertainty from the age of the creep, which the
+draws combine with the replicas' (pipeline.calibration.draws); ``error_with_age`` is ``error`` and
+the age error (``value x error_age_log``) in quadrature.
 """
 from __future__ import annotations
 
@@ -36,7 +44,7 @@ from pipeline.calibration.parameter_sets import (
     volume_averaged_parameters,
 )
 from pipeline.common.formats import open_fields
-from pipeline.common.observables import creep_speed, log_speed_error, replica_mean
+from pipeline.common.observables import HALVES, creep_half, creep_speed, has_halves, log_speed_error, replica_mean
 from pipeline.common.planar_cell import planar_cell
 
 #: Points faster than this fraction of the wall speed are the shear band in the fit report.
@@ -213,6 +221,24 @@ def region_residuals(model: str, geometry: PlanarShear, parameters: Any, z: np.n
             "band_points": int(band.sum()), "creep_points": int((~band).sum())}
 
 
+def age_entry(model: str, base: dict[str, float], halves: dict[str, CreepData], settings: dict[str, Any]
+              ) -> dict[str, Any]:
+    """The length fitted on the replicas' mean creep of each half of the production window
+    (``halves``: "first", "second") and ``error_age_log = |ln(second / first)| / 2``: the window's
+    value sits between the two, and the creep of no age in reach is the steady one. A half whose fit
+    fails is recorded with its reason and no age error."""
+    entry: dict[str, Any] = {}
+    for half, data in halves.items():
+        try:
+            entry[f"{half}_half"] = fit_length(model, base, data, settings).value
+        except (CalibrationError, continuum.ContinuumError, ValueError, RuntimeError) as exc:
+            entry[f"{half}_half_failed"] = str(exc)[:300]
+    first, second = entry.get("first_half"), entry.get("second_half")
+    if first is not None and second is not None and first > 0 and second > 0:
+        entry["error_age_log"] = 0.5 * abs(math.log(second / first))
+    return entry
+
+
 def jackknife_error(leave_one_out: Sequence[float]) -> float:
     """Jackknife standard error from the n leave-one-out estimates (n >= 2)."""
     theta = np.asarray(leave_one_out, dtype=float)
@@ -244,6 +270,8 @@ def fit_replicas(params: dict[str, Any], sets: Sequence[xr.Dataset], settings: d
     single = {run: mean_creep([ds], settings, ratio) for run, ds in zip(runs, sets)}
     left_out = ({run: mean_creep([o for o in sets if o is not ds], settings, ratio) for run, ds in zip(runs, sets)}
                 if len(sets) >= 2 else {})
+    halves = ({half: mean_creep([creep_half(ds, half) for ds in sets], settings, ratio) for half in HALVES}
+              if all(has_halves(ds) for ds in sets) else {})
     out: dict[str, Any] = {}
     residuals: dict[str, dict[str, float]] = {}
     for model in models:
@@ -266,6 +294,11 @@ def fit_replicas(params: dict[str, Any], sets: Sequence[xr.Dataset], settings: d
         else:
             entry |= {"error": fit.error,
                       "error_method": "the fit's curvature only: one replica, no realisation scatter measured"}
+        if halves:
+            entry["age"] = age_entry(model, base, halves, settings)
+            if "error_age_log" in entry["age"]:
+                # Linearised: the draws multiply by a log-normal factor of the combined log width.
+                entry["error_with_age"] = math.hypot(entry["error"], fit.value * entry["age"]["error_age_log"])
         if fit.note:
             entry["note"] = fit.note
         out[model] = {name: entry}

@@ -31,6 +31,34 @@ def creep_speed(ds: xr.Dataset) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return np.where(use, ud, u), np.where(use, ed, err), use
 
 
+#: The halves of a production window whose creep a fields file carries (``u_x_disp_<half>_half``).
+HALVES = ("first", "second")
+
+
+def has_halves(ds: xr.Dataset) -> bool:
+    """Whether ``ds`` carries the displacement creep of both halves of its window."""
+    return all(f"u_x_disp_{half}_half" in ds and f"u_x_disp_{half}_half_err" in ds for half in HALVES)
+
+
+def creep_half(ds: xr.Dataset, half: str) -> xr.Dataset:
+    """``ds`` with its displacement creep speed ``u_x_disp`` (and error) over one ``half`` of the
+    window ("first" or "second", :func:`pipeline.coarse_graining.fields.add_half_windows`) in place
+    of the whole window's: the creep at an earlier or later age of the same run. The half's time
+    error is floored at the whole window's structural error (the frozen packing, common to both
+    halves), so a half is no more precise than the packing allows."""
+    if half not in HALVES:
+        raise ValueError(f"half must be one of {HALVES}, got {half!r}")
+    u, err = ds[f"u_x_disp_{half}_half"].values, ds[f"u_x_disp_{half}_half_err"].values
+    total = np.fmax(err, ds["u_x_disp_err_structure"].values) if "u_x_disp_err_structure" in ds else err
+    out = ds.copy()
+    out["u_x_disp"] = ("z", u, dict(ds["u_x_disp"].attrs))
+    out["u_x_disp_err"] = ("z", total, dict(ds["u_x_disp_err"].attrs))
+    if "u_x_disp_err_time" in ds:
+        out["u_x_disp_err_time"] = ("z", err, dict(ds["u_x_disp_err_time"].attrs))
+    out.attrs["creep_from_half_window"] = half
+    return out
+
+
 def log_speed_error(u: np.ndarray, err: np.ndarray) -> np.ndarray:
     """Standard error of log10 u (decades), floored at :data:`LOG_SPEED_ERROR_FLOOR`."""
     with np.errstate(divide="ignore", invalid="ignore"):

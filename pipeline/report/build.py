@@ -241,10 +241,11 @@ def calibration_section(root: Path, figures: Figures) -> str:
             rows.append({"group": section, "parameter": name, "value": e["value"], "error": e["error"], "fitted on": e["fitted_on"]})
     for model, entry in params.get("nonlocal", {}).items():
         for name, e in entry.items():
-            value, err = e["value"], e["error"]
+            value, err, aged = e["value"], e["error"], e.get("error_with_age", math.nan)
             if name == "l":
-                name, value, err = "l / d", value / params["d"], err / params["d"]
-            rows.append({"group": model, "parameter": name, "value": value, "error": err, "fitted on": e["fitted_on"]})
+                name, value, err, aged = "l / d", value / params["d"], err / params["d"], aged / params["d"]
+            rows.append({"group": model, "parameter": name, "value": value, "error": err,
+                         "error with the creep's age": aged, "fitted on": e["fitted_on"]})
     for name, e in params.get("normal_stresses", {}).items():
         rows.append({"group": "normal stresses", "parameter": name, "value": e["value"], "error": e["error"],
                      "fitted on": e["fitted_on"]})

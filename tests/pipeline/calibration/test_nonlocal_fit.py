@@ -77,3 +77,41 @@ def test_jackknife_of_a_mean_is_its_standard_error(rng) -> None:
     x = rng.normal(size=7)
     loo = [(x.sum() - xi) / 6 for xi in x]
     assert jackknife_error(loo) == pytest.approx(x.std(ddof=1) / np.sqrt(7))
+
+
+def _with_halves(ds: xr.Dataset, first: np.ndarray, second: np.ndarray) -> xr.Dataset:
+    """``ds`` with displacement creep (the whole window's its u_x) and its halves' creep ``first``,
+    ``second`` (same relative error), the snapshot average too noisy to be chosen."""
+    u = ds.u_x.values
+    return ds.assign(u_x_err=("z", 10.0 * u), u_x_disp=("z", u), u_x_disp_err=("z", POINT_NOISE * u),
+                     u_x_disp_first_half=("z", first), u_x_disp_first_half_err=("z", POINT_NOISE * first),
+                     u_x_disp_second_half=("z", second), u_x_disp_second_half_err=("z", POINT_NOISE * second))
+
+
+def test_lengths_fitted_on_each_half_give_the_age_error(rng) -> None:
+    """Creep of an ageing bed: the first half's profile is NGF's with A = 0.36, the second's with A =
+    0.25 (the whole window's A = 0.3). The halves' fits recover their own A, and the age error is
+    half the log difference, which the draws add to the realisation error in quadrature."""
+    from pipeline.calibration.draws import relative_draw_error, relative_replica_error
+
+    z = np.linspace(0.5 * D, GEOMETRY.depth - 0.5 * D, 60)
+    profiles = {}
+    for a in (0.36, 0.25):
+        sol = continuum.solve("ngf", GEOMETRY, ngf_parameters(LOCAL | CRITICAL, A=a), n_grid=400)
+        profiles[a] = np.interp(z, sol.z.values, sol.u_x.values)
+    u_true = np.interp(z, truth().z.values, truth().u_x.values)
+    keep = (u_true > 1e-4 * GEOMETRY.wall_speed) & (profiles[0.25] > 1e-4 * GEOMETRY.wall_speed)
+    sets = []
+    for k in range(3):
+        ds = replica(u_true[keep], z[keep], rng, f"r{k + 1}")
+        noise = np.exp(POINT_NOISE * rng.standard_normal((2, keep.sum())))
+        sets.append(_with_halves(ds, profiles[0.36][keep] * noise[0], profiles[0.25][keep] * noise[1]))
+    entry = fit_replicas(PARAMS, sets, CALIBRATION_DEFAULTS, models=("ngf",))[0]["ngf"]["A"]
+    age = entry["age"]
+    # Point noise of 0.05 in log over ~50 points: the halves' A to a few per cent.
+    assert age["first_half"] == pytest.approx(0.36, rel=0.1) and age["second_half"] == pytest.approx(0.25, rel=0.1)
+    assert age["error_age_log"] == pytest.approx(0.5 * np.log(age["first_half"] / age["second_half"]))
+    assert relative_draw_error(entry) == pytest.approx(np.hypot(relative_replica_error(entry), age["error_age_log"]))
+    # Without the halves there is no age entry, and the draws' width is the realisation error alone.
+    plain = calibration(rng, truth())
+    assert "age" not in plain and relative_draw_error(plain) == relative_replica_error(plain)
