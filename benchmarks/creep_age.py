@@ -210,6 +210,11 @@ def main(argv: list[str] | None = None) -> None:
     a.add_argument("root", type=Path)
     a.add_argument("--segments", type=int, default=4, help="parts of each production (default 4)")
     args = parser.parse_args(argv)
+    for folder in ("dem", "fields") if args.command != "settle" else ("dem",):
+        if not (args.root / folder).is_dir():
+            parser.error(f"{args.root}: no {folder}/ folder (is it a finished output root?)")
+    if args.command == "prepare" and not args.config.is_file():
+        parser.error(f"{args.config}: config file not found")
     if args.command == "prepare":
         prepare(args.root, args.config, args.half, args.out)
     elif args.command == "settle":

@@ -311,6 +311,20 @@ def test_bad_config_stops_the_dem_cli_cleanly(tmp_path: Path) -> None:
     assert not out.exists()
 
 
+def test_report_on_a_root_without_its_runs_names_the_missing_file(tmp_path: Path) -> None:
+    config = yaml.safe_load(CI.read_text())
+    config["output_root"] = str(tmp_path / "empty")
+    path = tmp_path / "config.yaml"
+    path.write_text(yaml.safe_dump(config))
+    out = tmp_path / "report.html"
+    proc = subprocess.run([sys.executable, "-m", "pipeline.report", "--config", str(path), "--out", str(out)],
+                          cwd=REPO, capture_output=True, text=True)
+    assert proc.returncode == 1
+    assert "Traceback" not in proc.stderr
+    assert proc.stderr.startswith("error: ") and "run.json" in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
+    assert not out.exists()
+
+
 # ---------------------------------------------------------------------------------- LIGGGHTS
 FAKE_EXIT = """#!/bin/sh
 echo "LIGGGHTS (Version LIGGGHTS-PUBLIC 3.8.0) fake"
