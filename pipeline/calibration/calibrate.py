@@ -318,10 +318,12 @@ def main(argv: list[str] | None = None) -> int:
     for model, entry in params["nonlocal"].items():
         for name, e in entry.items():
             per = ", ".join(f"{run} {v:.4g}" for run, v in e["per_replica"].items())
-            age = e.get("age") or {}
-            aged = (f"; first half {age['first_half']:.4g}, second half {age['second_half']:.4g}, with the age's error "
-                    f"+- {e['error_with_age']:.2g}" if "error_with_age" in e else
-                    f"; no age error: {age}" if age else "")
+            age, aged = e.get("age") or {}, ""
+            if "error_with_age" in e:
+                aged = (f"; first half {age['first_half']:.4g}, second half {age['second_half']:.4g}, "
+                        f"with the age's error +- {e['error_with_age']:.2g}")
+            elif age:
+                aged = f"; no age error: {age}"
             print(f"{model}: {name} = {e['value']:.4g} +- {e['error']:.2g} (curvature {e['error_fit_curvature']:.2g}, "
                   f"jackknife {e.get('error_jackknife', float('nan')):.2g}; fitted on {e['fitted_on']}; per replica {per}{aged})")
     return 0

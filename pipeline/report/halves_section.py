@@ -2,31 +2,14 @@
 second half (``validation/creep_halves.csv``, :func:`pipeline.scoring.scalar_checks.creep_halves`)."""
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Any
 
 import matplotlib.pyplot as plt
-import numpy as np
 import pandas as pd
 
 from pipeline.report.html import table_html
-
-
-def halves_by_run(halves: pd.DataFrame) -> pd.DataFrame:
-    """One row per planar run: its depths compared, those beyond 2 (``|z_normal| > 2``, of the
-    depths whose z_normal is known), the mean log10 change (second half over first, decades;
-    negative: the creep slowed) and the mean z_normal. Neighbouring depths share the kernel and the
-    creep's own structure, so their z are correlated: the mean z is a summary, not a test."""
-    rows = []
-    for (case, run), frame in halves.groupby(["case", "run"], sort=True):
-        known = frame.z_normal.astype(float)
-        known = known[np.isfinite(known)]
-        rows.append({"case": case, "run": run, "depths": len(frame), "beyond_2": int((known.abs() > 2.0).sum()),
-                     "expected_beyond_2": round(0.0455 * known.size, 1),
-                     "mean_log10_change": float(frame.log10_change.mean()),
-                     "mean_z_normal": float(known.mean()) if known.size else math.nan})
-    return pd.DataFrame(rows)
+from pipeline.scoring.scalar_checks import STEADY_BEYOND_TWO, beyond_two, halves_by_run
 
 
 def creep_halves_section(root: Path, figures: Any) -> str:
@@ -51,12 +34,13 @@ def creep_halves_section(root: Path, figures: Any) -> str:
         ax.legend(fontsize=7)
     axes[0][0].set_ylabel("log10 (u second half / u first half), +- 2 sigma")
     table = halves_by_run(halves)
-    total_beyond, total_expected = int(table.beyond_2.sum()), float(table.expected_beyond_2.sum())
+    total_beyond, known = beyond_two(halves)
+    total_expected = STEADY_BEYOND_TWO * known
     return ("<h3>Is the creep steady? The production's halves</h3><p class='note'>Each planar run's displacement "
             "creep speed over the second half of its production against the first, at every whole d below the top "
             "contact plane where both halves are resolved; error bars 2 sigma of the halves' time errors (the "
-            "packing, common to both halves, cancels). A steady run scatters about zero with 4.6 % of its depths "
-            f"beyond 2 (normal-equivalent z of each depth's Student t): here {total_beyond} beyond 2 against "
+            "packing, common to both halves, cancels). A steady run scatters about zero with "
+            f"{100 * STEADY_BEYOND_TWO:.1f} % of its depths beyond 2 (normal-equivalent z of each depth's Student t): here {total_beyond} beyond 2 against "
             f"{total_expected:.1f} expected. Negative: the creep slowed during the production (the deep creep "
             "ages as the bed compacts: docs/dem.md). Per depth: <code>validation/creep_halves.csv</code>.</p>"
             + figures.add("creep_halves", fig, "Production halves of each planar run: log10 of the second half's creep "

@@ -99,6 +99,22 @@ def beyond_two(halves: pd.DataFrame) -> tuple[int, int]:
     return int((known.abs() > 2.0).sum()), int(known.size)
 
 
+def halves_by_run(halves: pd.DataFrame) -> pd.DataFrame:
+    """One row per run of a halves table: its depths compared, those beyond 2 (:func:`beyond_two`)
+    and the :data:`STEADY_BEYOND_TWO` share a steady run would give, the mean log10 change (second
+    half over first, decades; negative: the creep slowed) and the mean z_normal. Neighbouring depths
+    share the kernel and the creep's own structure, so their z are correlated: the mean z is a
+    summary, not a test."""
+    rows = []
+    for (case, run), frame in halves.groupby(["case", "run"], sort=True):
+        beyond, known = beyond_two(frame)
+        rows.append({"case": case, "run": run, "depths": len(frame), "beyond_2": beyond,
+                     "expected_beyond_2": round(STEADY_BEYOND_TWO * known, 1),
+                     "mean_log10_change": float(frame.log10_change.mean()),
+                     "mean_z_normal": float(frame.z_normal.astype(float).mean()) if known else math.nan})
+    return pd.DataFrame(rows)
+
+
 def creep_halves(ds: xr.Dataset) -> pd.DataFrame:
     """First-half against second-half creep of one planar run, at every whole d below the top
     contact plane inside the walls where both halves are resolved (above twice their errors)."""
