@@ -105,6 +105,7 @@ rule error_check:
     conda:
         ENV
     input:
+        config=CONFIG_JSON,
         fields=[f for case in layout.scored_cases(config) for f in layout.fields_paths(config, case)],
         rheometer=layout.fields_paths(config, "rheometer"),
         intruder_runs=layout.all_intruder_run_jsons(config),
@@ -117,6 +118,6 @@ rule error_check:
     benchmark:
         f"{ROOT}/benchmarks/error_check.tsv"
     shell:
-        "python -m pipeline.scoring error-check --fields {input.fields} --rheometer {input.rheometer} "
+        "python -m pipeline.scoring error-check --config {input.config} --fields {input.fields} --rheometer {input.rheometer} "
         "--intruder-runs {input.intruder_runs} --out {output.table} --resolution-out {output.resolution} "
         "--halves-out {output.halves} > {log} 2>&1"

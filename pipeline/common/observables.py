@@ -66,20 +66,29 @@ def log_speed_error(u: np.ndarray, err: np.ndarray) -> np.ndarray:
     return np.maximum(np.where(np.isfinite(raw), raw, np.inf), LOG_SPEED_ERROR_FLOOR)
 
 
+def walk_order(u: np.ndarray) -> np.ndarray:
+    """The indices of a creep profile from its fastest point towards its slower end (the side
+    whose far end is slower), fastest first; empty when no point is finite."""
+    u = np.asarray(u, dtype=float)
+    finite = np.isfinite(u)
+    if not finite.any():
+        return np.array([], dtype=int)
+    top = int(np.nanargmax(np.where(finite, u, -np.inf)))
+    left, right = u[:top + 1][::-1], u[top:]
+    side = -1 if np.nanmin(left) < np.nanmin(right) else 1
+    return np.arange(top, -1, -1) if side < 0 else np.arange(top, u.size)
+
+
 def resolved_walk(u: np.ndarray, err: np.ndarray) -> tuple[int, np.ndarray, int]:
     """The walk of :func:`decades_resolved`: the fastest point's index, the indices walked from it
     towards the slower end that are resolved (above 2 standard errors, in walking order), and the
     first index that is not (-1 when the walk reaches the profile's end)."""
     u = np.asarray(u, dtype=float)
     err = np.asarray(err, dtype=float)
-    finite = np.isfinite(u)
-    if not finite.any():
-        return -1, np.array([], dtype=int), -1
-    top = int(np.nanargmax(np.where(finite, u, -np.inf)))
-    # Walk towards the slower end: the side whose far end is slower.
-    left, right = u[:top + 1][::-1], u[top:]
-    side = -1 if np.nanmin(left) < np.nanmin(right) else 1
-    order = np.arange(top, -1, -1) if side < 0 else np.arange(top, u.size)
+    order = walk_order(u)
+    if order.size == 0:
+        return -1, order, -1
+    top = int(order[0])
     resolved = np.isfinite(u[order]) & np.isfinite(err[order]) & (u[order] > 2.0 * err[order])
     stop = int(np.argmin(resolved)) if not resolved.all() else order.size
     return top, order[:stop], int(order[stop]) if stop < order.size else -1

@@ -429,19 +429,24 @@ def build_report(config: dict[str, Any], figure_dir: Path | None = None) -> str:
 
 def creep_resolution_section(root: Path) -> str:
     """How far down each gravity case's replica mean resolves the creep, and what stops it
-    (``validation/creep_resolution.csv``, :func:`pipeline.scoring.error_check.replica_mean_resolution`)."""
+    (``validation/creep_resolution.csv``, :func:`pipeline.scoring.creep_resolution.replica_mean_resolution`)."""
     path = root / "validation" / "creep_resolution.csv"
     if not path.exists():
         return ""
     table = pd.read_csv(path)
     means = table[table.run.astype(str).str.startswith("mean of")]
     columns = [c for c in ("case", "run", "decades_best", "slowest_over_v_best", "deepest_interior_over_d",
-                           "decades_in_bed", "limited_by") if c in means]
+                           "decades_in_bed", "limited_by", "role", "decades_target", "target_met", "target_depth_over_d",
+                           "error_over_needed", "replicas_for_target") if c in means and means[c].notna().any()]
     return ("<h3>Creep resolved by the replica means</h3><p class='note'>Decades of u_x / V resolved above twice "
             "the replica mean's error, walking down from the top wall, and the slowest u_x / V resolved. What stops "
             "the walk: <i>wall margin</i> (the deepest point inside the walls' margin is resolved: the bed holds no "
             "more, decades_in_bed), <i>stated errors</i> (the replicas' combined time errors: a longer production or "
-            "more replicas resolve deeper), <i>replica scatter</i> (only more replicas do). Per run: "
+            "more replicas resolve deeper), <i>replica scatter</i> (only more replicas do). Against the config's target "
+            "(<code>scoring.creep_decades</code>): the depth where the mean is that many decades below its fastest "
+            "point, the factor by which its error would have to fall for every point down there to be resolved "
+            "(error_over_needed, below 1 where the target is met) and the replicas that factor asks for, n times its "
+            "square (empty where the bed is too shallow for the target). Per run: "
             "<code>validation/creep_resolution.csv</code>.</p>" + table_html(means[columns]))
 
 

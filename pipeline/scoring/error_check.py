@@ -14,7 +14,8 @@ table gives chi2's standard error sqrt(2 / dof) and the probability of a departu
 least as large (``p_value``) if the errors hold. Written to ``validation/error_check.csv``
 (case, field, chi2, chi2_err, pairs, points, replicas, dof, p_value, correlation_points,
 error_scale), with the scalars' rows (:mod:`pipeline.scoring.scalar_checks`: the rheometer's bulk
-means, the wall friction, the rods' speeds) after the profiles'.
+means, the wall friction, the rods' speeds) after the profiles'. The command also writes the
+creep's resolution (:mod:`pipeline.scoring.creep_resolution`) and its halves.
 """
 from __future__ import annotations
 
@@ -30,9 +31,10 @@ from scipy import stats
 
 from pipeline.common.statistics import integrated_autocorrelation_time
 from pipeline.common import atomic
+from pipeline.common.config import load_config
 from pipeline.scoring import scalar_checks
-from pipeline.common.observables import creep_speed, decades_resolved, replica_mean_parts, resolution, resolved_walk
-from pipeline.scoring.replicas import align_replicas, interior, top_plane
+from pipeline.scoring.creep_resolution import DecadesTargets, creep_resolution
+from pipeline.scoring.replicas import align_replicas, interior
 
 FIELDS = ("u_x", "u_x_disp", "nu", "sigma_zz", "sigma_xz", "mu")
 
@@ -74,82 +76,6 @@ def replica_chi2(reps: list[xr.Dataset], field: str) -> dict[str, float]:
     return {"chi2": chi2, "chi2_err": math.sqrt(2.0 / dof), "pairs": n * (n - 1) // 2, "points": points,
             "replicas": n, "dof": dof, "p_value": float(min(1.0, 2.0 * min(cdf, 1.0 - cdf))),
             "correlation_points": tau}
-
-
-def creep_resolution(paths: list[Path]) -> pd.DataFrame:
-    """Per run (gravity cases): decades of u_x / V resolved above 2 sigma inside the walls, from
-    the snapshot-averaged ``u_x``, from ``u_x_disp``, and from the pointwise better of the two (the
-    scores' choice, :func:`pipeline.common.observables.creep_speed`), with the slowest resolved
-    u_x / V of each."""
-    rows = []
-    for path in sorted(paths):
-        with xr.open_dataset(path) as ds:
-            if float(ds.attrs.get("gravity", 0.0)) <= 0 or "u_x_disp" not in ds:
-                continue
-            mask = interior(ds)
-            v = float(ds.attrs["wall_speed"])
-            best_u, best_err, _ = creep_speed(ds)
-            sources = {"u_x": (ds["u_x"].values, ds["u_x_err"].values),
-                       "u_x_disp": (ds["u_x_disp"].values, ds["u_x_disp_err"].values),
-                       "best": (best_u, best_err)}
-            row = {"case": path.parent.name, "run": path.stem}
-            for name, (u, err) in sources.items():
-                decades, slowest = decades_resolved(u[mask], err[mask], v)
-                row[f"decades_{name}"] = decades
-                row[f"slowest_over_v_{name}"] = slowest
-            rows.append(row)
-    rows.extend(replica_mean_resolution(paths))
-    return pd.DataFrame(rows, columns=RESOLUTION_COLUMNS)
-
-
-#: Columns of ``validation/creep_resolution.csv``: per run, then per case's replica mean.
-RESOLUTION_COLUMNS = ["case", "run", *(f"{k}_{s}" for s in ("u_x", "u_x_disp", "best") for k in ("decades", "slowest_over_v")),
-                      "deepest_interior_over_d", "decades_in_bed", "limited_by"]
-
-
-def replica_mean_resolution(paths: list[Path]) -> list[dict[str, object]]:
-    """The same for the mean of each case's replicas (run ids ``r<k>``), aligned by depth below
-    the top wall: the case's creep profile. Its error is the larger of the combined stated errors
-    and the replicas' scatter over sqrt(n) (the replicas differ by more than their stated errors
-    where the packing's structure is frozen).
-
-    What stops the resolved stretch, ``limited_by``: ``wall margin`` where it reaches the deepest
-    point inside the walls' margin (``deepest_interior_over_d``, d below the top contact plane:
-    no precision resolves more of this bed, whose mean there spans ``decades_in_bed``),
-    ``stated errors`` where the combined time errors exceed the scatter at the first unresolved
-    point (a longer production or more replicas resolve deeper), ``replica scatter`` where the
-    scatter does (only more replicas do)."""
-    rows = []
-    for case in sorted({p.parent.name for p in paths}):
-        files = sorted(p for p in paths if p.parent.name == case and p.stem.startswith("r") and p.stem[1:].isdigit())
-        if len(files) < 2:
-            continue
-        sets = [xr.open_dataset(f) for f in files]
-        try:
-            if float(sets[0].attrs.get("gravity", 0.0)) <= 0 or any("u_x_disp" not in ds for ds in sets):
-                continue
-            first = sets[0]
-            mask = interior(first)
-            depth = top_plane(first) - first.z.values[mask]
-            n = len(files)
-            mean, stated, scatter = replica_mean_parts(depth, [(top_plane(ds) - ds.z.values, *creep_speed(ds)[:2])
-                                                               for ds in sets])
-            err = np.fmax(stated, scatter)
-            top, walked, stop = resolved_walk(mean, err)
-            decades, slowest = resolution(mean, top, walked, float(first.attrs["wall_speed"]))
-            deepest = int(np.nanargmax(np.where(np.isfinite(mean), depth, -np.inf)))
-            if stop < 0:
-                limited_by = "wall margin"
-            else:
-                limited_by = "stated errors" if stated[stop] >= scatter[stop] else "replica scatter"
-            in_bed = (float(math.log10(mean[top] / mean[deepest])) if top >= 0 and mean[deepest] > 0 else math.nan)
-            rows.append({"case": case, "run": f"mean of {n} replicas", "decades_best": decades, "slowest_over_v_best": slowest,
-                         "deepest_interior_over_d": float(depth[deepest] / float(first.attrs["d"])),
-                         "decades_in_bed": in_bed, "limited_by": limited_by})
-        finally:
-            for ds in sets:
-                ds.close()
-    return rows
 
 
 def scalar_rows(rheometer: list[Path], fields: list[Path], intruder_runs: list[Path]) -> list[dict]:
@@ -205,6 +131,7 @@ def halves_summary(halves: pd.DataFrame) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description="Replica scatter against the stated error bars, per case and field.")
+    parser.add_argument("--config", default=None, help="the workflow config: the creep resolution's targets (scoring.creep_decades)")
     parser.add_argument("--fields", nargs="+", required=True, type=Path, help="fields/CASE/RUN.nc (replicas grouped by folder)")
     parser.add_argument("--rheometer", nargs="*", default=[], type=Path, help="fields/rheometer/*.nc: the states' bulk means")
     parser.add_argument("--intruder-runs", nargs="*", default=[], type=Path, help="run.json of the intruder runs: the rods' speeds")
@@ -223,7 +150,8 @@ def main(argv: list[str] | None = None) -> int:
                   f"chi2 {np.mean(frame.z ** 2):.2f}, beyond 2 (normal-equivalent) {scalar_checks.beyond_two(frame)[0]}")
         print(halves_summary(halves))
     if args.resolution_out is not None:
-        resolution = creep_resolution(args.fields)
+        targets = DecadesTargets.from_config(load_config(args.config)) if args.config else None
+        resolution = creep_resolution(args.fields, targets)
         atomic.write_csv(resolution, args.resolution_out)
         print(resolution.to_string(index=False))
     rows = []
