@@ -446,7 +446,7 @@ def creep_resolution_section(root: Path) -> str:
             "(<code>scoring.creep_decades</code>): the depth where the mean is that many decades below its fastest "
             "point, the factor by which its error would have to fall for every point down there to be resolved "
             "(error_over_needed, below 1 where the target is met) and the replicas that factor asks for, n times its "
-            "square (empty where the bed is too shallow for the target). Per run: "
+            "square (nan where the bed is too shallow for the target). Per run: "
             "<code>validation/creep_resolution.csv</code>.</p>" + table_html(means[columns]))
 
 
