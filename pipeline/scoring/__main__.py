@@ -1,5 +1,6 @@
 """``python -m pipeline.scoring``: model against DEM, against cost, and the DEM's own noise against cost."""
 from pipeline.common.cli import dispatch
+from pipeline.common.config import ConfigError
 
 COMMANDS = {
     "scores": ("pipeline.scoring.scores", "scores.csv: every model against the DEM, with the replica noise floor"),
@@ -9,4 +10,5 @@ COMMANDS = {
     "decay-length": ("pipeline.scoring.decay_length", "validation/decay_length.csv: creep decay length against mu, DEM and models"),
 }
 
-raise SystemExit(dispatch("scoring", COMMANDS))
+# A bad config or an input that is not there is the user's to mend: one line, no traceback.
+raise SystemExit(dispatch("scoring", COMMANDS, user_errors=(ConfigError, FileNotFoundError)))

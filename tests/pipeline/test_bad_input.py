@@ -325,6 +325,26 @@ def test_report_on_a_root_without_its_runs_names_the_missing_file(tmp_path: Path
     assert not out.exists()
 
 
+def test_error_check_refuses_a_bad_creep_target_naming_it(tmp_path: Path) -> None:
+    """``scoring.creep_decades`` is checked by the schema: a target of 0 decades is named in one
+    line and no table is written; a missing fields file is named too."""
+    config = yaml.safe_load(CI.read_text())
+    config.setdefault("scoring", {})["creep_decades"] = {"calibration": 0, "held_out": 3.5}
+    path = tmp_path / "config.yaml"
+    path.write_text(yaml.safe_dump(config))
+    out, resolution = tmp_path / "error_check.csv", tmp_path / "creep_resolution.csv"
+    command = [sys.executable, "-m", "pipeline.scoring", "error-check", "--fields", str(tmp_path / "r1.nc"),
+               "--out", str(out), "--resolution-out", str(resolution)]
+    proc = subprocess.run([*command, "--config", str(path)], cwd=REPO, capture_output=True, text=True)
+    assert proc.returncode == 1 and "Traceback" not in proc.stderr
+    assert "scoring.creep_decades.calibration" in proc.stderr
+    assert not out.exists() and not resolution.exists()
+    proc = subprocess.run(command, cwd=REPO, capture_output=True, text=True)
+    assert proc.returncode == 1 and "Traceback" not in proc.stderr
+    assert proc.stderr.startswith("error: ") and "r1.nc" in proc.stderr
+    assert not out.exists() and not resolution.exists()
+
+
 # ---------------------------------------------------------------------------------- LIGGGHTS
 FAKE_EXIT = """#!/bin/sh
 echo "LIGGGHTS (Version LIGGGHTS-PUBLIC 3.8.0) fake"
