@@ -43,7 +43,9 @@ class DecadesTargets:
     held_out: float
 
     def of(self, case: str) -> tuple[str, float]:
-        """The case's role (``calibration`` or ``held_out``, as in ``scores.csv``) and its target."""
+        """The case's role (``calibration`` or ``held_out``) and its target. Of the gravity cases only
+        ``calibration.nonlocal_case`` feeds the calibration, so this is ``scores.csv``'s role, read
+        from the config (this table does not wait for the calibration's ``params.json``)."""
         return ("calibration", self.calibration) if case == self.calibration_case else ("held_out", self.held_out)
 
     @classmethod
@@ -103,13 +105,13 @@ def target_reach(mean: np.ndarray, err: np.ndarray, depth_over_d: np.ndarray, ta
         return out
     with np.errstate(divide="ignore", invalid="ignore"):
         below = np.log10(mean[order[0]] / mean[order])
+        ratio = 2.0 * err[order] / mean[order]
     reached = np.flatnonzero(np.isfinite(below) & (below >= target))
     if reached.size == 0:
         return out
     stretch = order[:reached[0] + 1]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = np.where(mean[stretch] > 0, 2.0 * err[stretch] / mean[stretch], np.inf)
-    ratio = np.where(np.isfinite(ratio), ratio, np.inf)
+    # A point with no speed or no error cannot be resolved by any count of replicas.
+    ratio = np.where((mean[order] > 0) & np.isfinite(ratio), ratio, np.inf)[:reached[0] + 1]
     return {"target_depth_over_d": float(depth_over_d[stretch[-1]]), "error_over_needed": float(np.max(ratio))}
 
 
