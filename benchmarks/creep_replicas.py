@@ -9,7 +9,13 @@ roots) and prints, for every n from 2 to all, the decades resolved, ``error_over
 ``replicas_for_target`` of the mean over every subset of n replicas (their median and range), and
 of the first n (r1..rn, the workflow's choice). It prints; it asserts nothing.
 
-Usage: ``python benchmarks/creep_replicas.py --case shear_gravity --target 4 ROOT [ROOT ...]``
+``--half first`` reads each replica's creep over the first half of its production only
+(:func:`pipeline.common.observables.creep_half`): the run as it would have been with half its
+production strain (the steady window is the production's start, and every run of the default
+produces to its cap). Against the whole window, it says how the replica mean's error falls with
+the averaging time, as the subsets say how it falls with n.
+
+Usage: ``python benchmarks/creep_replicas.py --case shear_gravity --target 4 [--half first] ROOT [ROOT ...]``
 (each ROOT an output root holding ``fields/<case>/r<k>.nc``; a run id found in two roots is read
 from the first).
 """
@@ -26,6 +32,7 @@ import xarray as xr
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
+from pipeline.common.observables import creep_half  # noqa: E402
 from pipeline.scoring.creep_resolution import DecadesTargets, replica_mean_resolution  # noqa: E402
 
 #: Subsets read per n at the most (all of them below this).
@@ -40,6 +47,19 @@ def replica_files(roots: list[Path], case: str) -> list[Path]:
             if path.stem[1:].isdigit():
                 found.setdefault(int(path.stem[1:]), path)
     return [found[k] for k in sorted(found)]
+
+
+def half_window_files(files: list[Path], case: str, half: str, work: Path) -> list[Path]:
+    """``files`` with their creep over one ``half`` of the production, written under ``work``."""
+    out = []
+    folder = work / f"{half}_half" / case
+    folder.mkdir(parents=True, exist_ok=True)
+    for k, path in enumerate(files, start=1):
+        target = folder / f"r{k}.nc"
+        with xr.open_dataset(path) as ds:
+            creep_half(ds.load(), half).to_netcdf(target)
+        out.append(target)
+    return out
 
 
 def subset_row(files: list[Path], case: str, target: float, work: Path) -> dict[str, object]:
@@ -62,6 +82,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("roots", nargs="+", type=Path, help="output roots with fields/<case>/r<k>.nc")
     parser.add_argument("--case", required=True)
     parser.add_argument("--target", type=float, required=True, help="decades of u_x / V to resolve")
+    parser.add_argument("--half", choices=("first", "second"), help="the creep of one half of each production only")
     parser.add_argument("--work", type=Path, default=Path("/tmp/creep_replicas"), help="scratch folder for the links")
     args = parser.parse_args(argv)
     files = replica_files(args.roots, args.case)
@@ -69,6 +90,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: fewer than 2 replicas of {args.case} under {', '.join(map(str, args.roots))}", file=sys.stderr)
         return 1
     print(f"{args.case}: {len(files)} replicas ({', '.join(str(f) for f in files)}); target {args.target:g} decades")
+    if args.half:
+        files = half_window_files(files, args.case, args.half, args.work)
+        print(f"creep over the {args.half} half of each production")
     print(f"{'n':>2} {'subsets':>7}  {'decades median [range]':>24}  {'met':>5}  {'error_over_needed median':>24}  "
           f"{'replicas asked (median)':>23}  first n: decades, error_over_needed, asked")
     for n in range(2, len(files) + 1):
