@@ -167,6 +167,10 @@ def main(argv: list[str] | None = None) -> int:
         for ds in reps:
             ds.close()
     rows += scalar_rows(args.rheometer, args.fields, args.intruder_runs)
+    # The planar creep's halves as one chi2 a case (the table above gives them point by point).
+    halves = halves if args.halves_out is not None else halves_table(args.fields)
+    for case in sorted(set(halves.case) - {"intruder"}):
+        rows.append(scalar_checks.creep_halves_row(halves, case))
     table = pd.DataFrame(rows, columns=scalar_checks.SCALAR_COLUMNS)
     atomic.write_csv(table, args.out)
     print(table.to_string(index=False))

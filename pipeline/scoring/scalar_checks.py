@@ -20,8 +20,8 @@ import pandas as pd
 import xarray as xr
 from scipy import stats
 
-from pipeline.common.statistics import (chi2_of_deviates, error_scale, normal_equivalent,  # noqa: F401 (error_scale: used by error_check)
-                                        pooled_chi2, welch_dof)
+from pipeline.common.statistics import (NO_CHECK, chi2_of_deviates, error_scale, integrated_autocorrelation_time,
+                                        normal_equivalent, pooled_chi2, welch_dof)
 
 SCALAR_COLUMNS = ["case", "field", "chi2", "chi2_err", "pairs", "points", "replicas", "dof", "p_value",
                   "correlation_points", "error_scale"]
@@ -181,3 +181,37 @@ def rod_halves_row(runs: list[dict]) -> dict:
         deviates.append(normal_equivalent(t, welch_dof(ea ** 2, eb ** 2, blocks, blocks))[0] if blocks >= 2 else t)
     return {"case": runs[0]["case"] if runs else "intruder", "field": "rod_speed_halves",
             **chi2_of_deviates(deviates), "replicas": 2}
+
+
+def creep_halves_row(halves: pd.DataFrame, case: str) -> dict:
+    """``creep_halves``: the planar runs of ``case``, first half of each production against the
+    second (the ``z_normal`` of ``validation/creep_halves.csv``, normal deviates if the creep is
+    steady within its stated time errors), as one chi2. A run's depths share grains and bursts, so
+    its independent points are counted as the profiles' are (:func:`pipeline.scoring.error_check.
+    replica_chi2`): ``points / (2 tau)``, ``tau`` the integrated autocorrelation time (in points)
+    of its z along depth, at least one point a run. The runs are pooled: ``chi2 = sum_runs
+    mean(z^2) * independent / sum_runs independent``. A drift or an understated time error raises
+    chi2 above 1 beyond ``chi2_err``; ``pairs`` counts the runs, ``correlation_points`` is the
+    runs' mean tau."""
+    frame = halves[(halves.case == case)]
+    total, dof, taus, points, runs = 0.0, 0.0, [], 0, 0
+    for _, run in frame.groupby("run"):
+        z = run.sort_values("depth_over_d").z_normal.astype(float).to_numpy()
+        z = z[np.isfinite(z)]
+        if z.size == 0:
+            continue
+        tau = float(integrated_autocorrelation_time(z)) if z.size >= 2 else 0.5
+        tau = tau if math.isfinite(tau) else 0.5
+        independent = float(np.clip(z.size / (2.0 * tau), 1.0, z.size))
+        total += float(np.mean(z ** 2)) * independent
+        dof += independent
+        taus.append(tau)
+        points += int(z.size)
+        runs += 1
+    if runs == 0:
+        return {"case": case, "field": "creep_halves", **NO_CHECK}
+    chi2, chi2_err = total / dof, math.sqrt(2.0 / dof)
+    cdf = float(stats.chi2.cdf(total, dof))
+    return {"case": case, "field": "creep_halves", "chi2": chi2, "chi2_err": chi2_err, "pairs": runs,
+            "points": points, "replicas": 2, "dof": dof, "p_value": float(min(1.0, 2.0 * min(cdf, 1.0 - cdf))),
+            "correlation_points": float(np.mean(taus)), "error_scale": error_scale(chi2, chi2_err)}
