@@ -53,11 +53,18 @@ def chi2_of_deviates(deviates: Iterable[float]) -> dict[str, float]:
     z = np.asarray([v for v in deviates if math.isfinite(v)], dtype=float)
     if z.size == 0:
         return dict(NO_CHECK)
-    return _chi2_row(float(np.sum(z ** 2)), int(z.size), pairs=int(z.size), points=int(z.size), replicas=math.nan)
+    return chi2_row(float(np.sum(z ** 2)), int(z.size), pairs=int(z.size), points=int(z.size), replicas=math.nan)
 
 
-def _chi2_row(total: float, dof: int, **counts: float) -> dict[str, float]:
-    """The check's row from a chi-squared ``total`` over ``dof`` degrees of freedom."""
+def independent_points(points: int, tau: float) -> float:
+    """Independent points of ``points`` correlated along a profile with integrated autocorrelation
+    time ``tau`` (in points): ``points / (2 tau)``, between one and ``points``."""
+    return float(np.clip(points / (2.0 * tau), 1.0, points))
+
+
+def chi2_row(total: float, dof: float, **counts: float) -> dict[str, float]:
+    """The check's row from a chi-squared ``total`` over ``dof`` degrees of freedom (not
+    necessarily whole: correlated points count as :func:`independent_points`)."""
     chi2, chi2_err = total / dof, math.sqrt(2.0 / dof)
     cdf = float(stats.chi2.cdf(total, dof))
     return {"chi2": chi2, "chi2_err": chi2_err, **counts, "dof": float(dof),
@@ -96,4 +103,4 @@ def pooled_chi2(groups: Iterable[tuple[np.ndarray, np.ndarray]]) -> dict[str, fl
         replicas = max(replicas, values.size)
     if dof == 0:
         return dict(NO_CHECK) | {"points": points, "replicas": replicas}
-    return _chi2_row(total, dof, pairs=pairs, points=points, replicas=replicas)
+    return chi2_row(total, dof, pairs=pairs, points=points, replicas=replicas)

@@ -29,7 +29,7 @@ import pandas as pd
 import xarray as xr
 from scipy import stats
 
-from pipeline.common.statistics import integrated_autocorrelation_time
+from pipeline.common.statistics import independent_points, integrated_autocorrelation_time
 from pipeline.common import atomic
 from pipeline.common.config import load_config
 from pipeline.scoring import scalar_checks
@@ -70,7 +70,7 @@ def replica_chi2(reps: list[xr.Dataset], field: str) -> dict[str, float]:
     chi2 = float((standardised**2).sum(axis=0).mean() / (n - 1))
     tau = float(np.nanmean(integrated_autocorrelation_time(standardised.T)))
     points = int(ok.sum())
-    independent = float(np.clip(points / (2.0 * tau), 1.0, points))
+    independent = independent_points(points, tau)
     dof = (n - 1) * independent
     cdf = float(stats.chi2.cdf(chi2 * dof, dof))
     return {"chi2": chi2, "chi2_err": math.sqrt(2.0 / dof), "pairs": n * (n - 1) // 2, "points": points,
@@ -142,8 +142,9 @@ def main(argv: list[str] | None = None) -> int:
                         help="also write each planar run's creep, first half of its production against the second "
                              "(validation/creep_halves.csv)")
     args = parser.parse_args(argv)
+    # Read once: written point by point here, pooled per case into the table below.
+    halves = halves_table(args.fields, args.intruder_runs)
     if args.halves_out is not None:
-        halves = halves_table(args.fields, args.intruder_runs)
         atomic.write_csv(halves, args.halves_out)
         for (case, run), frame in halves.groupby(["case", "run"]):
             print(f"{case}/{run}: creep halves at {len(frame)} depths, mean z {frame.z.mean():+.2f}, "
@@ -168,7 +169,6 @@ def main(argv: list[str] | None = None) -> int:
             ds.close()
     rows += scalar_rows(args.rheometer, args.fields, args.intruder_runs)
     # The planar creep's halves as one chi2 a case (the table above gives them point by point).
-    halves = halves if args.halves_out is not None else halves_table(args.fields)
     for case in sorted(set(halves.case) - {"intruder"}):
         rows.append(scalar_checks.creep_halves_row(halves, case))
     table = pd.DataFrame(rows, columns=scalar_checks.SCALAR_COLUMNS)

@@ -20,8 +20,9 @@ import pandas as pd
 import xarray as xr
 from scipy import stats
 
-from pipeline.common.statistics import (NO_CHECK, chi2_of_deviates, error_scale, integrated_autocorrelation_time,
-                                        normal_equivalent, pooled_chi2, welch_dof)
+from pipeline.common.statistics import (NO_CHECK, chi2_of_deviates, chi2_row, error_scale,  # noqa: F401 (error_scale: used by error_check)
+                                        independent_points, integrated_autocorrelation_time, normal_equivalent,
+                                        pooled_chi2, welch_dof)
 
 SCALAR_COLUMNS = ["case", "field", "chi2", "chi2_err", "pairs", "points", "replicas", "dof", "p_value",
                   "correlation_points", "error_scale"]
@@ -193,16 +194,15 @@ def creep_halves_row(halves: pd.DataFrame, case: str) -> dict:
     mean(z^2) * independent / sum_runs independent``. A drift or an understated time error raises
     chi2 above 1 beyond ``chi2_err``; ``pairs`` counts the runs, ``correlation_points`` is the
     runs' mean tau."""
-    frame = halves[(halves.case == case)]
     total, dof, taus, points, runs = 0.0, 0.0, [], 0, 0
-    for _, run in frame.groupby("run"):
+    for _, run in halves[halves.case == case].groupby("run"):
         z = run.sort_values("depth_over_d").z_normal.astype(float).to_numpy()
         z = z[np.isfinite(z)]
         if z.size == 0:
             continue
         tau = float(integrated_autocorrelation_time(z)) if z.size >= 2 else 0.5
         tau = tau if math.isfinite(tau) else 0.5
-        independent = float(np.clip(z.size / (2.0 * tau), 1.0, z.size))
+        independent = independent_points(z.size, tau)
         total += float(np.mean(z ** 2)) * independent
         dof += independent
         taus.append(tau)
@@ -210,8 +210,5 @@ def creep_halves_row(halves: pd.DataFrame, case: str) -> dict:
         runs += 1
     if runs == 0:
         return {"case": case, "field": "creep_halves", **NO_CHECK}
-    chi2, chi2_err = total / dof, math.sqrt(2.0 / dof)
-    cdf = float(stats.chi2.cdf(total, dof))
-    return {"case": case, "field": "creep_halves", "chi2": chi2, "chi2_err": chi2_err, "pairs": runs,
-            "points": points, "replicas": 2, "dof": dof, "p_value": float(min(1.0, 2.0 * min(cdf, 1.0 - cdf))),
-            "correlation_points": float(np.mean(taus)), "error_scale": error_scale(chi2, chi2_err)}
+    return {"case": case, "field": "creep_halves", **chi2_row(total, dof, pairs=runs, points=points, replicas=2),
+            "correlation_points": float(np.mean(taus))}
