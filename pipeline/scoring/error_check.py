@@ -142,6 +142,9 @@ def main(argv: list[str] | None = None) -> int:
                         help="also write each planar run's creep, first half of its production against the second "
                              "(validation/creep_halves.csv)")
     args = parser.parse_args(argv)
+    # The config first: a bad target is named before any input is read or output written.
+    targets = (DecadesTargets.from_config(load_config(args.config))
+               if args.config and args.resolution_out is not None else None)
     # Read once: written point by point here, pooled per case into the table below.
     halves = halves_table(args.fields, args.intruder_runs)
     if args.halves_out is not None:
@@ -151,7 +154,6 @@ def main(argv: list[str] | None = None) -> int:
                   f"chi2 {np.mean(frame.z ** 2):.2f}, beyond 2 (normal-equivalent) {scalar_checks.beyond_two(frame)[0]}")
         print(halves_summary(halves))
     if args.resolution_out is not None:
-        targets = DecadesTargets.from_config(load_config(args.config)) if args.config else None
         resolution = creep_resolution(args.fields, targets)
         atomic.write_csv(resolution, args.resolution_out)
         print(resolution.to_string(index=False))
