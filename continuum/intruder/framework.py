@@ -1,0 +1,501 @@
+"""One 2D steady solver around the rod that every model plugs into (issue 43).
+
+The framework owns the mechanics; a model owns its constitutive law.
+
+Mechanics (framework): the Stokes-type momentum balance on the periodic MAC cell of ``mac.py``
+(x periodic with period L_x, rigid rough walls at z = 0 at rest and z = H moving at V along +x,
+gravity along -z, compressive-positive stresses)::
+
+    div(2 eta D + S) - grad(pi) - rho g e_z = 0,     div u = 0,
+
+with a secant viscosity ``eta`` (Pa s) and an optional explicit (lagged) extra stress ``S``
+(tensile-positive, Pa) supplied by the model, and the rigid rod translating at the speed U that
+balances its push F: F + (force of the material on the rod) = 0. For each viscosity field the
+problem is linear, so one factorisation is solved for three right-hand sides (weight and S with
+walls and rod at rest; top wall at unit speed; rod at unit speed) and superposed with the top wall
+at V and U from the rod's force balance.
+
+One pressure convention for 1D and 2D: ``pi`` is the in-plane mean normal stress of the Stokes
+problem, equal to sigma_zz in planar flow (the momentum balance fixes it: P_wall at the top, plus
+the weight); the pressure the constitutive laws see is ``p = pi / normal_stress_ratio``, exactly
+as the 1D solves use ``p = sigma_zz / normal_stress_ratio`` (``continuum.geometry.PlanarShear``).
+Near the rod the ratio sigma_zz / p is taken as the far field's (the models have no normal-stress
+law of their own).
+
+The outer nonlinear iteration (framework): the unknowns are the model's own fields (its
+``field_tolerances`` keys, e.g. ln g for NGF) and the pressure p (scaled by the far-field p at
+each height). One evaluation of the fixed-point map G is: viscosity from the fields and p ->
+Stokes solve -> the model's update of its fields from the flow, and p from the flow. The root of
+(G(X) - X) / tolerance is found by ``scipy.optimize.anderson`` (Anderson mixing, depth
+``GridOptions.anderson_depth``, damping ``GridOptions.relaxation``); a model may limit the step
+of a field (``step_limits``: G(X) - X is clipped, which leaves the fixed points unchanged).
+Why Anderson: the map is cheap to evaluate (one sparse LU of the Stokes system) but contracts
+slowly or not at all along a few global modes (the wall-driven shear stress against the fluidity
+level; the stress concentrations at the staircase rod), which Anderson's short history removes;
+Newton-Krylov needs several map evaluations per Krylov step for the same effect.
+
+Convergence, on every unknown: after the accelerated iteration reports that every field and p
+changes under one more application of G by less than its tolerance, one more plain step
+(X -> G(X)) is taken and must move every field, p (relative to the local far-field p), every
+velocity (relative to V) and the rod speed (relative to |U|) by less than its tolerance; otherwise
+the iteration resumes from there (at most ``_ROUNDS`` times) before ``ConvergenceError``.
+
+How a model plugs in: subclass ``RodSolver`` and implement
+
+- ``model`` (class attribute): the contract model name (``"ngf"``, ``"local_mu_i"``...).
+- ``planar_solution()`` -> xr.Dataset: the model's own 1D planar solution of the cell without
+  the rod, with ``z`` (m), ``u_x`` (m s-1) and ``p`` (Pa, the 1D convention above). It gives the
+  far-field p and the first iterate (the solution without the rod must be reproduced in 2D).
+- ``bulk_density(fields)`` -> float or array on the cells (kg m-3): rho_s nu, the weight's density.
+- ``initial_fields(planar)`` -> dict name -> array on the cells (flat, index j * nx + i).
+- ``field_tolerances`` -> dict name -> absolute tolerance on that field's change (its own units,
+  e.g. 1e-4 on ln g: 0.01 % in the fluidity).
+- ``viscosity(fields, p)`` -> array on the cells (Pa s): the secant viscosity eta = tau / shear
+  rate for the current fields and pressure p (Pa, floored at ``P_FLOOR`` x the top p).
+- ``update(flow, fields)`` -> dict name -> array on the cells: the constitutive update, the new
+  value of each field given the Stokes solution ``flow`` (a ``Flow``: velocities, strain rates,
+  stresses, pressure, rod and wall speeds, all on the grid).
+
+and optionally
+
+- ``explicit_stress(fields, p)`` -> ``ExtraStress`` or None: a lagged stress added to the
+  momentum balance (for higher-gradient or couple-stress terms the viscosity cannot carry).
+- ``step_limits`` -> dict name -> largest change of that field in one step.
+- ``output_fields(flow, fields)`` -> dict name -> (array on the cells, units, long_name), added
+  to the solution's Dataset.
+- ``check(flow, fields)``: raise ``OutOfRangeError`` for a converged state the model refuses.
+
+Solid (rod) cells: the framework fills every field and p there with the nearest material cell's
+value after each update (only corner averages next to the rod surface see them); tolerances are
+tested on material cells only.
+"""
+from __future__ import annotations
+
+import time
+from abc import ABC, abstractmethod
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+import numpy as np
+import xarray as xr
+from scipy import ndimage
+from scipy.optimize import anderson
+from scipy.optimize import NoConvergence
+
+from ..errors import ConvergenceError, OutOfRangeError
+from ..geometry import PlanarShear
+from .mac import MacGrid, RodMask, StokesSystem, assemble, build_operators, rod_mask
+from .scene import GridOptions, RodIntruder
+
+#: Floor on p in the constitutive laws, as a fraction of the top pressure. A granular bed carries
+#: no tension; early iterates can dip below it next to the rod. A converged state that still needs
+#: it is refused (``OutOfRangeError``: the bed opens next to the rod).
+P_FLOOR = 0.05
+#: Plain-step checks after the accelerated iteration before giving up.
+_ROUNDS = 4
+
+
+@dataclass(frozen=True)
+class ExtraStress:
+    """An explicit tensile-positive stress (Pa) added to 2 eta D in the momentum balance.
+
+    ``xx`` and ``zz`` at the cell centres, ``xz`` (acting on x-faces along z... the d/dz of it
+    enters the x balance) and ``zx`` (its d/dx enters the z balance) at the corners; ``zx`` None
+    means symmetric (zx = xz). Arrays flat, cells j * nx + i, corners j * nx + i (j = 0..nz).
+    """
+
+    xx: np.ndarray
+    zz: np.ndarray
+    xz: np.ndarray
+    zx: np.ndarray | None = None
+
+
+@dataclass
+class Flow:
+    """The Stokes solution for one viscosity field, on the grid (flat arrays, cells j * nx + i).
+
+    Attributes:
+        u, w: face velocities (m s-1): u on the x-faces (n_cells), w on the interior z-faces.
+        pi: Stokes in-plane mean normal stress at the cells (Pa, compressive positive; its level
+            set by the top wall's load P_wall).
+        p: model pressure pi / normal_stress_ratio (Pa); ``p_eff`` the same floored at P_FLOOR x
+            the top pressure (what the constitutive laws use).
+        d_xx: du/dx at the cells (s-1; d_zz = -d_xx).
+        d_xz: (du/dz + dw/dx) / 2 at the cells (s-1, the corners' values averaged).
+        shear_rate: 2 sqrt(d_xx^2 + d_xz^2) at the cells (s-1; du/dz in planar shear).
+        s_xx, s_xz: deviatoric stress (tensile positive) at the cells (Pa), viscous plus explicit.
+        tau: sqrt(s_xx^2 + s_xz^2) (Pa); mu = tau / p_eff.
+        eta: the viscosity the flow was solved with (Pa s).
+        d_xz_corners, s_xz_corners: at the corners (n_corners).
+        top_speed, rod_speed: V and U (m s-1; U NaN without rod).
+        tau_top: mean shear stress on the top wall (Pa, the drive).
+        rod_force_parts: (f_load, f_top, f_rod) the material's force on the rod along x (N m-1)
+            for walls and rod at rest, per unit top speed, per unit rod speed (None without rod).
+    """
+
+    u: np.ndarray
+    w: np.ndarray
+    pi: np.ndarray
+    p: np.ndarray
+    p_eff: np.ndarray
+    d_xx: np.ndarray
+    d_xz: np.ndarray
+    shear_rate: np.ndarray
+    s_xx: np.ndarray
+    s_xz: np.ndarray
+    tau: np.ndarray
+    mu: np.ndarray
+    eta: np.ndarray
+    d_xz_corners: np.ndarray
+    s_xz_corners: np.ndarray
+    top_speed: float
+    rod_speed: float
+    tau_top: float
+    rod_force_parts: tuple[float, float, float] | None
+    x: np.ndarray = field(repr=False)
+    system: StokesSystem = field(repr=False)
+    rhs_load: np.ndarray = field(repr=False)
+
+
+@dataclass
+class RodSolution:
+    """A converged 2D solution (``RodSolver.solve``).
+
+    ``state`` (the model's fields and p on the cells) is what a warm start takes; ``residuals``
+    the last plain step's change of each unknown in the units its tolerance is stated in.
+    """
+
+    model: str
+    speed: float
+    converged: bool
+    iterations: int
+    residuals: dict[str, float]
+    solve_seconds: float
+    n_grid: int
+    flow: Flow
+    state: dict[str, np.ndarray]
+    fields: xr.Dataset
+    planar: xr.Dataset
+    planar_seconds: float
+    attrs: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def residual(self) -> float:
+        """Largest residual over the unknowns, each over its tolerance (< 1: converged)."""
+        return float(max(self.residuals.get(k + "_over_tol", 0.0) for k in self.residuals))
+
+
+def fill_solid(values: np.ndarray, solid: np.ndarray, grid: MacGrid) -> np.ndarray:
+    """Copy into solid cells the value of the nearest material cell."""
+    if not solid.any():
+        return values
+    mask2 = solid.reshape(grid.nz, grid.nx)
+    _, (jj, ii) = ndimage.distance_transform_edt(mask2, sampling=(grid.hz, grid.hx), return_indices=True)
+    return values.reshape(grid.nz, grid.nx)[jj, ii].ravel()
+
+
+class RodSolver(ABC):
+    """Steady 2D flow around the rod for one model (see the module docstring for how to plug in).
+
+    Args:
+        geometry: the planar cell (its ``normal_stress_ratio`` sets the pressure convention).
+        params: the model's parameter object (``self.params``).
+        cell_length_x: periodic length L_x (m).
+        rod: the rod, or None for the cell without it (the 1D planar problem in 2D).
+        options: grid and iteration controls.
+        case: label used in error messages.
+    """
+
+    model: ClassVar[str] = ""
+
+    def __init__(self, geometry: PlanarShear, params: Any, cell_length_x: float, rod: RodIntruder | None,
+                 options: GridOptions = GridOptions(), case: str | None = None) -> None:
+        if geometry.wall_speed <= 0.0:
+            raise OutOfRangeError(self.model, "the 2D solve needs a moving top wall (V > 0)", case)
+        if rod is not None:
+            rod.check_inside(geometry, cell_length_x)
+        self.geometry, self.params, self.rod, self.options, self.case = geometry, params, rod, options, case
+        self.cell_length_x = cell_length_x
+        nx, nz = options.counts(geometry, cell_length_x)
+        self.grid = MacGrid(nx, nz, cell_length_x / nx, geometry.depth / nz)
+        self.ops = build_operators(self.grid)
+        self.mask: RodMask = rod_mask(self.grid, rod, 0.5 * cell_length_x)
+        self.material = ~self.mask.solid_cells
+        self.x_cells, self.z_cells = self.grid.cell_xz()
+        self.evaluations = 0
+
+    # ---- the model's part -------------------------------------------------------------------
+    @abstractmethod
+    def planar_solution(self) -> xr.Dataset:
+        """The model's 1D planar solution of this cell (z, u_x, p)."""
+
+    @abstractmethod
+    def bulk_density(self, fields: dict[str, np.ndarray]) -> float | np.ndarray:
+        """rho_s nu (kg m-3), scalar or on the cells."""
+
+    @abstractmethod
+    def initial_fields(self, planar: xr.Dataset) -> dict[str, np.ndarray]:
+        """The model's fields on the cells from its planar solution."""
+
+    @property
+    @abstractmethod
+    def field_tolerances(self) -> dict[str, float]:
+        """Absolute tolerance on the change of each field in one plain step."""
+
+    @abstractmethod
+    def viscosity(self, fields: dict[str, np.ndarray], p: np.ndarray) -> np.ndarray:
+        """Secant viscosity at the cells (Pa s)."""
+
+    @abstractmethod
+    def update(self, flow: Flow, fields: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """New value of every field from the flow."""
+
+    def explicit_stress(self, fields: dict[str, np.ndarray], p: np.ndarray) -> ExtraStress | None:
+        return None
+
+    @property
+    def step_limits(self) -> dict[str, float]:
+        return {}
+
+    def output_fields(self, flow: Flow, fields: dict[str, np.ndarray]) -> dict[str, tuple[np.ndarray, str, str]]:
+        return {}
+
+    def check(self, flow: Flow, fields: dict[str, np.ndarray]) -> None:
+        return None
+
+    # ---- the framework's part ---------------------------------------------------------------
+    @property
+    def top_pressure(self) -> float:
+        """Model pressure under the top wall (Pa): P_wall / normal_stress_ratio."""
+        return self.geometry.top_pressure
+
+    def stokes(self, eta: np.ndarray, fields: dict[str, np.ndarray], p_eff: np.ndarray) -> Flow:
+        """Solve the momentum balance for the viscosity ``eta`` with the top wall at V and the
+        rod free under its push (see the module docstring)."""
+        grid, ops, mask, geo = self.grid, self.ops, self.mask, self.geometry
+        nc, nw, nx, nz = grid.n_cells, grid.n_w, grid.nx, grid.nz
+        V = geo.wall_speed
+        system = assemble(grid, ops, mask, eta)
+        rho = np.broadcast_to(np.asarray(self.bulk_density(fields), dtype=float), (nc,))
+        rho2 = rho.reshape(nz, nx)
+        body = geo.gravity * 0.5 * (rho2[1:] + rho2[:-1]).ravel()  # at the interior w-faces
+        b_load = system.unconstrained_rhs(0.0, body)
+        extra = self.explicit_stress(fields, p_eff)
+        if extra is not None:
+            zx = extra.xz if extra.zx is None else extra.zx
+            # div S at the faces; moved to the right-hand side
+            b_load[:nc] -= -ops.dxu.T @ extra.xx + ops.kz @ extra.xz
+            b_load[nc:nc + nw] -= -ops.dxw.T @ zx - ops.dzw.T @ extra.zz
+        b_top = system.unconstrained_rhs(1.0, None)
+        x_load = system.solve_rhs(b_load, 0.0)
+        x_top = system.solve_rhs(b_top, 0.0)
+        vol = grid.hx * grid.hz
+        parts = None
+        if self.rod is not None:
+            x_rod = system.solve_rhs(np.zeros_like(b_top), 1.0)
+
+            def force(x: np.ndarray, b: np.ndarray) -> float:
+                return float(vol * (system.matrix @ x - b)[:nc][mask.u_faces].sum())
+
+            parts = (force(x_load, b_load), force(x_top, b_top), force(x_rod, np.zeros_like(b_top)))
+            rod_speed = -(self.rod.force_per_length + parts[0] + parts[1] * V) / parts[2]
+            x = x_load + V * x_top + rod_speed * x_rod
+        else:
+            rod_speed = float("nan")
+            x = x_load + V * x_top
+        u, w, pi = system.split(x)
+        pi = pi.copy()
+        top_row = 1.5 * pi[(nz - 1) * nx:] - 0.5 * pi[(nz - 2) * nx:(nz - 1) * nx]
+        pi += geo.wall_pressure - top_row.mean()  # the top wall carries P_wall on average (sigma_zz = pi there)
+        pi = fill_solid(pi, mask.pinned_cells, grid)
+        p = pi / geo.normal_stress_ratio
+        p_eff = np.maximum(p, P_FLOOR * self.top_pressure)
+        d_xx = ops.dxu @ u
+        gam_k = ops.dzu @ u + ops.lift_top * V + ops.dxw @ w
+        d_xz_k = 0.5 * gam_k
+        s_xz_k = system.eta_corner * gam_k
+        s_xx = 2.0 * eta * d_xx
+        if extra is not None:
+            s_xz_k = s_xz_k + extra.xz
+            s_xx = s_xx + extra.xx
+        d_xz = ops.centre_from_corners @ d_xz_k
+        s_xz = ops.centre_from_corners @ s_xz_k
+        tau = np.hypot(s_xx, s_xz)
+        return Flow(u=u, w=w, pi=pi, p=p, p_eff=p_eff, d_xx=d_xx, d_xz=d_xz,
+                    shear_rate=2.0 * np.hypot(d_xx, d_xz), s_xx=s_xx, s_xz=s_xz, tau=tau, mu=tau / p_eff,
+                    eta=eta, d_xz_corners=d_xz_k, s_xz_corners=s_xz_k, top_speed=V, rod_speed=float(rod_speed),
+                    tau_top=float(s_xz_k[nz * nx:].mean()), rod_force_parts=parts, x=x, system=system,
+                    rhs_load=b_load)
+
+    def _flow_of(self, fields: dict[str, np.ndarray], p: np.ndarray) -> Flow:
+        self.evaluations += 1
+        p_eff = np.maximum(p, P_FLOOR * self.top_pressure)
+        return self.stokes(self.viscosity(fields, p_eff), fields, p_eff)
+
+    def _step(self, fields: dict[str, np.ndarray], p: np.ndarray) -> tuple[Flow, dict[str, np.ndarray], np.ndarray]:
+        """One application of G: the flow of (fields, p), the updated fields and p."""
+        flow = self._flow_of(fields, p)
+        new = self.update(flow, fields)
+        new = {k: fill_solid(v, self.mask.solid_cells, self.grid) for k, v in new.items()}
+        return flow, new, fill_solid(flow.p, self.mask.solid_cells, self.grid)
+
+    def solve(self, warm: dict[str, np.ndarray] | None = None) -> RodSolution:
+        """Converged steady solution; ``warm`` is a previous solution's ``state`` on the same
+        grid (the iteration starts there instead of the planar solution)."""
+        t0 = time.perf_counter()
+        self.evaluations = 0
+        opts, mat = self.options, self.material
+        t1 = time.perf_counter()
+        planar = self.planar_solution()
+        planar_seconds = time.perf_counter() - t1
+        p_far = np.interp(self.z_cells, planar.z.values, planar.p.values)
+        names = list(self.field_tolerances)
+        tol = self.field_tolerances
+        if warm is not None:
+            fields = {k: np.array(warm[k], dtype=float) for k in names}
+            p = np.array(warm["p"], dtype=float)
+        else:
+            fields = self.initial_fields(planar)
+            p = p_far.copy()
+        n_mat = int(mat.sum())
+        scale = np.concatenate([np.full(n_mat, tol[k]) for k in names] + [np.full(n_mat, opts.pressure_tolerance)])
+        limits = np.concatenate([np.full(n_mat, self.step_limits.get(k, np.inf)) for k in names] + [np.full(n_mat, np.inf)])
+
+        def pack(f: dict[str, np.ndarray], pp: np.ndarray) -> np.ndarray:
+            return np.concatenate([f[k][mat] for k in names] + [pp[mat] / p_far[mat]]) / scale
+
+        def unpack(y: np.ndarray) -> tuple[dict[str, np.ndarray], np.ndarray]:
+            x = y * scale
+            f = {}
+            for i, k in enumerate(names):
+                v = fields[k].copy()
+                v[mat] = x[i * n_mat:(i + 1) * n_mat]
+                f[k] = fill_solid(v, self.mask.solid_cells, self.grid)
+            pp = p.copy()
+            pp[mat] = x[len(names) * n_mat:] * p_far[mat]
+            return f, fill_solid(pp, self.mask.solid_cells, self.grid)
+
+        def residual(y: np.ndarray) -> np.ndarray:
+            f, pp = unpack(y)
+            _, f_new, p_new = self._step(f, pp)
+            r = pack(f_new, p_new) - y
+            return np.clip(r, -limits / scale, limits / scale)
+
+        y = pack(fields, p)
+        last: dict[str, float] = {}
+        ok = False
+        for _ in range(_ROUNDS):
+            budget = opts.max_iterations - self.evaluations
+            if budget <= 0:
+                break
+            if opts.anderson_depth > 0:
+                try:
+                    y = anderson(residual, y, alpha=opts.relaxation, M=opts.anderson_depth, f_tol=1.0,
+                                 maxiter=budget, line_search=None)
+                except NoConvergence as exc:
+                    y = np.asarray(exc.args[0])
+                except (ValueError, FloatingPointError, np.linalg.LinAlgError):
+                    break
+            else:  # damped Picard, for comparison
+                for _k in range(budget):
+                    r = residual(y)
+                    if np.max(np.abs(r)) < 1.0:
+                        break
+                    y = y + opts.relaxation * r
+            # one plain step: every unknown must move by less than its tolerance
+            f0, p0 = unpack(y)
+            flow0, f1, p1 = self._step(f0, p0)
+            flow1, _, _ = self._step(f1, p1)
+            last = self._changes(names, f0, p0, flow0, f1, p1, flow1, p_far)
+            fields, p = f1, p1
+            y = pack(f1, p1)
+            if all(v < 1.0 for k, v in last.items() if k.endswith("_over_tol")):
+                ok = True
+                break
+        iterations = self.evaluations
+        if not ok:
+            worst = max(last.items(), key=lambda kv: kv[1] if kv[0].endswith("_over_tol") else -1)[0] if last else "-"
+            raise ConvergenceError(self.model, float(max((v for k, v in last.items() if k.endswith("_over_tol")),
+                                                          default=np.nan)),
+                                   f"2D solve not converged in {iterations} map evaluations (worst: {worst})", self.case)
+        flow = flow1
+        p_min = float(flow.p[mat].min())
+        if p_min < P_FLOOR * self.top_pressure:
+            raise OutOfRangeError(self.model, f"pressure {p_min:.3g} Pa next to the rod: the bed opens in tension", self.case)
+        self.check(flow, fields)
+        state = {k: v.copy() for k, v in fields.items()}
+        state["p"] = p.copy()
+        ds = self._dataset(flow, fields)
+        attrs = {"tau_top": flow.tau_top, "p_min": p_min, "mu_max": float(flow.mu[mat].max()),
+                 "nx": self.grid.nx, "nz": self.grid.nz}
+        attrs.update(self._rod_outputs(flow))
+        return RodSolution(self.model, flow.rod_speed, True, iterations, last, time.perf_counter() - t0,
+                           self.grid.n_cells, flow, state, ds, planar, planar_seconds, attrs)
+
+    def _changes(self, names: list[str], f0: dict, p0: np.ndarray, flow0: Flow, f1: dict, p1: np.ndarray,
+                 flow1: Flow, p_far: np.ndarray) -> dict[str, float]:
+        mat, opts, V = self.material, self.options, self.geometry.wall_speed
+        out: dict[str, float] = {}
+        for k in names:
+            ch = float(np.max(np.abs(f1[k][mat] - f0[k][mat])))
+            out[k] = ch
+            out[k + "_over_tol"] = ch / self.field_tolerances[k]
+        dp = float(np.max(np.abs(p1[mat] - p0[mat]) / p_far[mat]))
+        out["p_rel"], out["p_over_tol"] = dp, dp / opts.pressure_tolerance
+        fluid_u = ~self.mask.u_faces
+        fluid_w = ~self.mask.w_faces
+        du = max(float(np.max(np.abs(flow1.u[fluid_u] - flow0.u[fluid_u]))),
+                 float(np.max(np.abs(flow1.w[fluid_w] - flow0.w[fluid_w])) if fluid_w.any() else 0.0)) / V
+        out["velocity_over_V"], out["velocity_over_tol"] = du, du / opts.velocity_tolerance
+        if self.rod is not None:
+            dU = abs(flow1.rod_speed - flow0.rod_speed) / max(abs(flow1.rod_speed), 1e-300)
+            out["rod_speed_rel"], out["rod_speed_over_tol"] = dU, dU / opts.rod_speed_tolerance
+        return out
+
+    def _rod_outputs(self, flow: Flow) -> dict[str, float]:
+        """Drift (U at F = 0), mobility dU/dF at the converged viscosity, vertical force and
+        torque of the material on the rod (N m-1 along +z; N about +y)."""
+        if self.rod is None:
+            return {}
+        grid, mask = self.grid, self.mask
+        nc, nw, nx, nz = grid.n_cells, grid.n_w, grid.nx, grid.nz
+        f_load, f_top, f_rod = flow.rod_force_parts
+        vol = grid.hx * grid.hz
+        r_all = flow.system.matrix @ flow.x - (flow.rhs_load + flow.system.unconstrained_rhs(flow.top_speed, None))
+        r_u, r_w = r_all[:nc][mask.u_faces], r_all[nc:nc + nw][mask.w_faces]
+        zu = np.repeat(grid.z_centres, nx)[mask.u_faces]
+        xw = np.tile(grid.x_centres, nz - 1)[mask.w_faces]
+        return {"mobility": float(-1.0 / f_rod),
+                "drift_speed": float(-(f_load + f_top * flow.top_speed) / f_rod),
+                "vertical_force": float(vol * r_w.sum()),
+                "torque": float(vol * (np.sum((zu - self.rod.depth_from_bottom) * r_u)
+                                       - np.sum((xw - 0.5 * self.cell_length_x) * r_w)))}
+
+    def _dataset(self, flow: Flow, fields: dict[str, np.ndarray]) -> xr.Dataset:
+        grid, mask = self.grid, self.mask
+        nx, nz = grid.nx, grid.nz
+        u2 = flow.u.reshape(nz, nx)
+        ux = 0.5 * (u2 + np.roll(u2, -1, axis=1))
+        w_full = np.zeros((nz + 1, nx))
+        w_full[1:nz] = flow.w.reshape(nz - 1, nx)
+        uz = 0.5 * (w_full[:-1] + w_full[1:])
+        solid = mask.solid_cells
+
+        def var(values: np.ndarray, units: str, name: str, nan_inside: bool = True) -> tuple:
+            v = np.where(solid, np.nan, values) if nan_inside else values
+            return (("z", "x"), np.asarray(v).reshape(nz, nx), {"units": units, "long_name": name})
+
+        data = {
+            "u_x": var(ux.ravel(), "m s-1", "velocity along x (rigid rod speed inside the rod)", False),
+            "u_z": var(uz.ravel(), "m s-1", "velocity along z", False),
+            "shear_rate": var(flow.shear_rate, "s-1", "shear-rate magnitude 2 sqrt(D_xx^2 + D_xz^2) (NaN inside the rod)"),
+            "p": var(flow.p, "Pa", "pressure pi / normal_stress_ratio, compressive positive (NaN inside the rod)"),
+            "mu": var(flow.mu, "1", "stress ratio tau / p (NaN inside the rod)"),
+            "solid": var(solid.astype(np.int8), "1", "1 inside the rod", False),
+        }
+        for name, (values, units, long_name) in self.output_fields(flow, fields).items():
+            data[name] = var(values, units, long_name)
+        return xr.Dataset(data, coords={
+            "x": ("x", grid.x_centres, {"units": "m", "long_name": "cell-centre x"}),
+            "z": ("z", grid.z_centres, {"units": "m", "long_name": "cell-centre height above the bottom wall"})},
+            attrs={"rod_speed": float(flow.rod_speed), "nx": nx, "nz": nz, "model": self.model})
