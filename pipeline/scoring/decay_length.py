@@ -103,27 +103,111 @@ def creep_windows(depth: np.ndarray, u: np.ndarray, err: np.ndarray | None, wall
     return out
 
 
-def dem_rows(path: Path, mu_s: float, role: str) -> pd.DataFrame:
-    """The decay-rate windows of one DEM fields file (module docstring), errors not yet scaled."""
-    with xr.open_dataset(path) as ds:
-        d = float(ds.attrs["d"])
-        u, err, disp = creep_speed(ds)
-        z = ds.z.values
-        top, bottom = top_plane(ds), bottom_plane(ds)
-        depth = top - z
-        v = float(ds.attrs["wall_speed"])
-        lo, hi = WALL_MARGIN_OVER_D * d, (top - bottom) - WALL_MARGIN_OVER_D * d
-        rows = []
-        for k, idx in creep_windows(depth, u, err, v, WINDOW_OVER_D * d, lo, hi):
+def fixed_windows(depth: np.ndarray, u: np.ndarray, wall_speed: float, width: float, lo: float, hi: float
+                  ) -> list[tuple[int, np.ndarray]]:
+    """(window index, point indices) of the creep windows of the ``fixed_depth`` rule: the same
+    windows of ``width`` counted from ``lo`` as :func:`creep_windows`, from the first below the band
+    (u < ``CREEP_FRACTION`` V at every point) down to ``hi``, whatever the points' resolution: a
+    window whose creep is below its noise stays in, with the error its likelihood gives it."""
+    out = []
+    started = False
+    for k, a in enumerate(np.arange(lo, hi - 0.5 * width, width)):
+        idx = np.nonzero((depth >= a) & (depth < a + width))[0]
+        if idx.size < 3 or not np.all(np.isfinite(u[idx])):
+            continue
+        if not started and np.any(u[idx] >= CREEP_FRACTION * wall_speed):
+            continue
+        started = True
+        out.append((k, idx))
+    return out
+
+
+#: The ``fixed_depth`` rule's slopes are searched over k d in this range (a window that does not
+#: bound its slope inside it gets the range's half width as its error: it weighs nothing), first
+#: on a coarse grid, then on a fine one around the coarse interval.
+SLOPE_RANGE_D = (-30.0, 30.0)
+_COARSE_STEP_D, _FINE_STEP_D = 0.1, 0.005
+
+
+def _profile_chi2(k: np.ndarray, z: np.ndarray, u: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """chi2 of ``u = A exp(k z)`` at each k (m-1) with A at its best (closed form)."""
+    shape = np.exp(np.outer(k, z))
+    a = (shape * u * w).sum(axis=1) / (shape**2 * w).sum(axis=1)
+    return ((u - a[:, None] * shape) ** 2 * w).sum(axis=1)
+
+
+def likelihood_slope(z: np.ndarray, u: np.ndarray, err: np.ndarray, d: float) -> tuple[float, float, bool]:
+    """Decay rate k (m-1) of ``u = A exp(k (z - z_mean))`` fitted to the points in u itself, with
+    their errors (Gaussian in u, so a point below its noise, or negative, is a point like any
+    other): A is profiled out in closed form, k is the chi2 minimum over k d in
+    :data:`SLOPE_RANGE_D`, its error half the width of the delta chi2 = 1 interval. Returns
+    (k, error, bounded); an interval reaching the range's ends is not bounded, its error the range's
+    half width (no information, no weight)."""
+    w = 1.0 / np.asarray(err, dtype=float) ** 2
+    zc = (z - z.mean()) / d
+    coarse = np.arange(SLOPE_RANGE_D[0], SLOPE_RANGE_D[1] + 0.5 * _COARSE_STEP_D, _COARSE_STEP_D)
+    chi2 = _profile_chi2(coarse, zc, u, w)
+    best = int(np.argmin(chi2))
+    inside = np.nonzero(chi2 <= chi2[best] + 1.0)[0]
+    if inside.min() == 0 or inside.max() == coarse.size - 1:
+        return float(coarse[best] / d), 0.5 * (SLOPE_RANGE_D[1] - SLOPE_RANGE_D[0]) / d, False
+    fine = np.arange(coarse[inside.min() - 1], coarse[inside.max() + 1] + 0.5 * _FINE_STEP_D, _FINE_STEP_D)
+    chi2 = _profile_chi2(fine, zc, u, w)
+    best = int(np.argmin(chi2))
+    inside = np.nonzero(chi2 <= chi2[best] + 1.0)[0]
+    half = max(0.5 * (fine[inside.max()] - fine[inside.min()]), _FINE_STEP_D)
+    return float(fine[best] / d), float(half / d), True
+
+
+#: The window selection rules: ``resolved`` (the workflow's: every point above twice its error,
+#: the walk stops at the first unresolved window; slopes of ln u) and ``fixed_depth`` (windows
+#: fixed in depth down to the bottom margin, unresolved points kept; slopes fitted in u).
+RULES = ("resolved", "fixed_depth")
+
+
+def dem_rows(source: Path | xr.Dataset, mu_s: float, role: str, rule: str = "resolved") -> pd.DataFrame:
+    """The decay-rate windows of one DEM fields file (a path or an open dataset; module
+    docstring), errors not yet scaled, windows chosen by ``rule`` (:data:`RULES`)."""
+    if rule not in RULES:
+        raise ValueError(f"rule must be one of {RULES}, got {rule!r}")
+    if isinstance(source, xr.Dataset):
+        return _dem_rows(source, mu_s, role, rule, "")
+    with xr.open_dataset(source) as ds:
+        return _dem_rows(ds, mu_s, role, rule, source)
+
+
+def _dem_rows(ds: xr.Dataset, mu_s: float, role: str, rule: str, path: Path | str) -> pd.DataFrame:
+    d = float(ds.attrs["d"])
+    u, err, disp = creep_speed(ds)
+    z = ds.z.values
+    top, bottom = top_plane(ds), bottom_plane(ds)
+    depth = top - z
+    v = float(ds.attrs["wall_speed"])
+    lo, hi = WALL_MARGIN_OVER_D * d, (top - bottom) - WALL_MARGIN_OVER_D * d
+    if rule == "resolved":
+        windows = creep_windows(depth, u, err, v, WINDOW_OVER_D * d, lo, hi)
+    else:
+        windows = fixed_windows(depth, u, v, WINDOW_OVER_D * d, lo, hi)
+    mu, mu_err, inertial = ds["mu"].values, ds["mu_err"].values, ds["I"].values
+    case, run = str(ds.attrs.get("case", Path(path).parent.name)), str(ds.attrs.get("run", Path(path).stem))
+    rows = []
+    for k, idx in windows:
+        if rule == "resolved":
             slope, slope_err = window_slope(z[idx], u[idx], err[idx])
-            rows.append({"case": str(ds.attrs.get("case", path.parent.name)), "run": str(ds.attrs.get("run", path.stem)),
-                         "window": k, "z": float(z[idx].mean()), "slope": slope, "slope_err": slope_err,
-                         "xi": 1.0 / slope if slope > 0 else math.inf,
-                         "mu": float(ds["mu"].values[idx].mean()), "mu_err": float(ds["mu_err"].values[idx].mean()),
-                         "I": float(ds["I"].values[idx].mean()), "depth_below_top": float(depth[idx].mean()),
-                         "u_over_V": float(np.exp(np.log(u[idx]).mean()) / v),
-                         "speed_source": "u_x_disp" if disp[idx].mean() >= 0.5 else "u_x", "role": role})
-    frame = pd.DataFrame(rows, columns=[c for c in COLUMNS if c not in ("mu_over_mu_s", "xi_err")])
+            bounded = True
+        else:
+            slope, slope_err, bounded = likelihood_slope(z[idx], u[idx], err[idx], d)
+        u_mean = float(np.mean(u[idx]))
+        rows.append({"case": case, "run": run, "window": k, "z": float(z[idx].mean()), "slope": slope, "slope_err": slope_err,
+                     "xi": 1.0 / slope if slope > 0 else math.inf,
+                     "mu": float(mu[idx].mean()), "mu_err": float(mu_err[idx].mean()),
+                     "I": float(inertial[idx].mean()), "depth_below_top": float(depth[idx].mean()),
+                     # A window below its noise may hold points at or below zero: its speed is the
+                     # plain mean there (the geometric mean where every point is positive).
+                     "u_over_V": float(np.exp(np.log(u[idx]).mean()) / v) if np.all(u[idx] > 0) else u_mean / v,
+                     "speed_source": "u_x_disp" if disp[idx].mean() >= 0.5 else "u_x", "role": role,
+                     "slope_bounded": bounded})
+    frame = pd.DataFrame(rows, columns=[c for c in COLUMNS if c not in ("mu_over_mu_s", "xi_err")] + ["slope_bounded"])
     return frame.assign(mu_over_mu_s=frame.mu / mu_s)
 
 
@@ -131,15 +215,14 @@ def replica_error_scale(windows: pd.DataFrame) -> tuple[float, int]:
     """The replicas' verdict on the slope errors: for every pair of replicas of a case with a window
     at the same depth, ``z = (k_a - k_b) / sqrt(s_a^2 + s_b^2)``; returns ``sqrt(mean z^2)`` and the
     number of pairs (scale 1 with fewer than 3 pairs: nothing to judge by)."""
-    terms = []
-    for (_, _), group in windows.groupby(["case", "window"]):
-        rows = group.to_dict("records")
-        for i in range(len(rows)):
-            for j in range(i + 1, len(rows)):
-                a, b = rows[i], rows[j]
-                combined = math.hypot(a["slope_err"], b["slope_err"])
-                if combined > 0:
-                    terms.append(((a["slope"] - b["slope"]) / combined) ** 2)
+    terms: list[np.ndarray] = []
+    for _, group in windows.groupby(["case", "window"]):
+        k, s = group.slope.to_numpy(dtype=float), group.slope_err.to_numpy(dtype=float)
+        i, j = np.triu_indices(k.size, 1)
+        combined = np.hypot(s[i], s[j])
+        keep = combined > 0
+        terms.append(((k[i] - k[j])[keep] / combined[keep]) ** 2)
+    terms = np.concatenate(terms) if terms else np.array([])
     if len(terms) < 3:
         return 1.0, len(terms)
     return float(math.sqrt(np.mean(terms))), len(terms)
@@ -268,6 +351,19 @@ def fits_table(dem: pd.DataFrame, models: pd.DataFrame, mu_s: float, d: float) -
     return pd.DataFrame(rows)
 
 
+def scaled_windows(sources: list[tuple[Path | xr.Dataset, str]], mu_s: float, rule: str = "resolved"
+                   ) -> tuple[pd.DataFrame, float, int]:
+    """Every run's windows under ``rule`` (``sources``: (fields file or dataset, role)), their slope
+    errors times the replicas' verdict (:func:`replica_error_scale`, judged on the windows that
+    bound their slope: one that does not would compare as z = 0 whatever the scatter), with
+    ``xi_err``; returns the table, the scale and its number of pairs."""
+    dem = pd.concat([dem_rows(f, mu_s, role, rule) for f, role in sources], ignore_index=True)
+    scale, pairs = replica_error_scale(dem[dem.slope_bounded.astype(bool)])
+    dem["slope_err"] = dem.slope_err * scale
+    dem["xi_err"] = np.where(dem.slope > 0, dem.slope_err / np.where(dem.slope > 0, dem.slope, 1.0) ** 2, np.inf)
+    return dem, scale, pairs
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description="Creep decay length against the stress ratio, DEM and models.")
     parser.add_argument("--config", required=True, help="the workflow config (recorded beside the tables)")
@@ -279,11 +375,8 @@ def main(argv: list[str] | None = None) -> int:
     params = json.loads(args.params.read_text())
     mu_s, d = float(params["local"]["mu_s"]["value"]), float(params["d"])
     calibrated = calibration_cases(params)
-    dem = pd.concat([dem_rows(f, mu_s, "calibration" if f.parent.name in calibrated else "held_out") for f in args.fields],
-                    ignore_index=True)
-    scale, pairs = replica_error_scale(dem)
-    dem["slope_err"] = dem.slope_err * scale
-    dem["xi_err"] = np.where(dem.slope > 0, dem.slope_err / dem.slope**2, np.inf)
+    dem, scale, pairs = scaled_windows([(f, "calibration" if f.parent.name in calibrated else "held_out")
+                                        for f in args.fields], mu_s)
     dem = dem[COLUMNS]
     fields = {(f.parent.name, f.stem): f for f in args.fields}
     models = pd.concat([model_rows(f, dem, mu_s, d, fields) for f in args.models] or [pd.DataFrame(columns=MODEL_COLUMNS)],
