@@ -16,7 +16,9 @@ from pathlib import Path
 from pipeline.common.config import size_classes
 
 TEMPLATE_ROOT = Path(__file__).resolve().parents[2] / "liggghts_inputs"
-SHARED_TEMPLATES = ("common_settings.in", "materials.in")
+#: Templates every geometry's stages include: the settings, the materials, the top wall's motion and
+#: the pair-force sums (the last two in every shear stage, see docs/dem.md "Action and reaction").
+SHARED_TEMPLATES = ("common_settings.in", "materials.in", "top_wall_drive.in", "pair_force.in")
 
 _USE = re.compile(r"\$\{([A-Za-z_][A-Za-z0-9_]*)\}")
 _DEFINE = re.compile(r"^\s*variable\s+([A-Za-z_][A-Za-z0-9_]*)\s", re.MULTILINE)
