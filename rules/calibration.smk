@@ -3,6 +3,7 @@
 
 
 rule calibrate:
+    priority: targets.AFTER_DEM_PRIORITY
     message:
         "Calibration of the local laws (rheometer) and the non-local lengths"
     conda:
@@ -23,6 +24,7 @@ rule calibrate:
 
 
 rule calibration_draws:
+    priority: targets.AFTER_DEM_PRIORITY
     message:
         "Parameter draws from the calibration's uncertainty"
     conda:

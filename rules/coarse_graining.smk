@@ -2,6 +2,7 @@
 
 
 rule fields:
+    priority: targets.AFTER_DEM_PRIORITY
     message:
         "Coarse-grained fields of {wildcards.case}/{wildcards.run}"
     conda:
@@ -23,6 +24,7 @@ rule fields:
 
 
 rule intruder_fields:
+    priority: targets.AFTER_DEM_PRIORITY
     message:
         "x-z fields around the rod of {wildcards.case}/{wildcards.run}, in its frame"
     conda:
@@ -45,6 +47,7 @@ rule intruder_fields:
 
 
 rule paraview:
+    priority: targets.AFTER_DEM_PRIORITY
     message:
         "The fields of {wildcards.case} as one ParaView collection"
     conda:

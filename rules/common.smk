@@ -35,3 +35,11 @@ def convergence_stores(wildcards):
 
 def convergence_fields(wildcards):
     return targets.convergence_fields(wildcards, config)
+
+
+def dem_run_priority(wildcards):
+    return targets.dem_job_priority(config, wildcards.case, wildcards.run)
+
+
+def dem_fill_priority(wildcards):
+    return targets.dem_job_priority(config, wildcards.case, wildcards.fill)

@@ -19,6 +19,8 @@ rule dem_fill:
         fill="fill-[A-Za-z0-9.\\-]+",
     params:
         run_dir=targets.output_folder,
+    # The longest chain to the report first (pipeline/workflow/priorities.py).
+    priority: dem_fill_priority
     threads: targets.mpi_ranks(config)
     resources:
         tasks=targets.mpi_ranks(config),
@@ -48,6 +50,7 @@ rule dem:
         run_dir=targets.output_folder,
         fill_from=targets.fill_from_option,
         start_from=targets.start_from_option,
+    priority: dem_run_priority
     threads: targets.mpi_ranks(config)
     resources:
         tasks=targets.mpi_ranks(config),

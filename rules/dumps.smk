@@ -2,6 +2,7 @@
 
 
 rule dump_store:
+    priority: targets.AFTER_DEM_PRIORITY
     message:
         "Dumps of {wildcards.case}/{wildcards.run} into one compact store"
     conda:

@@ -2,6 +2,7 @@
 
 
 rule model:
+    priority: targets.AFTER_DEM_PRIORITY
     message:
         "Model {wildcards.model} on {wildcards.case}"
     conda:
@@ -27,6 +28,7 @@ rule model:
 
 
 rule intruder_model:
+    priority: targets.AFTER_DEM_PRIORITY
     message:
         "Model {wildcards.model}: intruder speed at the DEM depths of {wildcards.case}"
     conda:

@@ -2,6 +2,7 @@
 
 
 rule report:
+    priority: targets.AFTER_DEM_PRIORITY
     message:
         "Comparison report"
     conda:

@@ -2,6 +2,7 @@
 
 
 rule scores:
+    priority: targets.AFTER_DEM_PRIORITY
     message:
         "Scores of every model against the DEM, with their uncertainty, and which models can be told apart"
     conda:
@@ -34,6 +35,7 @@ rule scores:
 
 
 rule cost_accuracy:
+    priority: targets.AFTER_DEM_PRIORITY
     message:
         "Accuracy against cost: each model over a sweep of grid resolution"
     conda:
@@ -55,6 +57,7 @@ rule cost_accuracy:
 
 
 rule dem_convergence:
+    priority: targets.AFTER_DEM_PRIORITY
     message:
         "DEM field noise against core-seconds of {wildcards.case}: averaging time and system size"
     conda:
@@ -76,6 +79,7 @@ rule dem_convergence:
 
 
 rule decay_length:
+    priority: targets.AFTER_DEM_PRIORITY
     message:
         "Creep decay length against the stress ratio, every planar case, DEM and models"
     conda:
@@ -100,6 +104,7 @@ rule decay_length:
 
 
 rule error_check:
+    priority: targets.AFTER_DEM_PRIORITY
     message:
         "Replica scatter against the stated error bars: profiles, scalars, rods; creep in the production's halves"
     conda:

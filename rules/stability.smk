@@ -2,6 +2,7 @@
 
 
 rule well_posedness:
+    priority: targets.AFTER_DEM_PRIORITY
     message:
         "Linear stability of every model about simple shear"
     conda:
@@ -19,6 +20,7 @@ rule well_posedness:
 
 
 rule mesh_convergence:
+    priority: targets.AFTER_DEM_PRIORITY
     message:
         "Mesh dependence of every model (shear_gravity and a weak-plane localisation case)"
     conda:
@@ -37,6 +39,7 @@ rule mesh_convergence:
 
 
 rule failure_catalogue:
+    priority: targets.AFTER_DEM_PRIORITY
     message:
         "Failure catalogue: solver ranges that do not converge, DEM settings that fail"
     conda:

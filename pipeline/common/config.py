@@ -289,11 +289,16 @@ def shared_fill_ids(case_name: str, case: dict[str, Any]) -> list[str]:
       at its own rate to its own steady packing before anything is measured).
     - An intruder case with ``control``: ``fill-D<depth>-r<k>``, the shallowest run's, which its
       control (the same run with the top wall at rest) has always poured again from the same seed.
+    - An intruder case with ``shared_bed``: ``fill-sheared-r<k>``, one per replica, poured without
+      the rod and sheared to steady state; every run of the replica inserts its rod into it
+      (:mod:`pipeline.dem.sheared_bed`).
     Replicas never share a fill: their scatter is the DEM noise.
     """
     replicas = [f"r{k + 1}" for k in range(case["replicas"])]
     if case_name == RHEOMETER and case.get("shared_fill", False):
         return [f"fill-{rep}" for rep in replicas]
+    if is_sheared_bed_case(case):
+        return [f"{SHEARED_BED_PREFIX}{rep}" for rep in replicas]
     if case["geometry"] == "intruder" and case.get("control", False):
         return [f"fill-D{min(case['depths_below_top']):g}-{rep}" for rep in replicas]
     return []
@@ -305,6 +310,8 @@ def shared_fill_of(case_name: str, case: dict[str, Any], run: str) -> str | None
         return None
     if case["geometry"] == "intruder":
         depth, _, replica = intruder_run(run)
+        if is_sheared_bed_case(case):
+            return f"{SHEARED_BED_PREFIX}{replica}"
         fill = f"fill-D{depth:g}-{replica}"
         return fill if fill in shared_fill_ids(case_name, case) else None
     return f"fill-{run.rsplit('-', 1)[1]}"
@@ -320,6 +327,8 @@ def fill_owner_run(case_name: str, case: dict[str, Any], fill: str) -> str:
     if fill not in shared_fill_ids(case_name, case):
         raise ValueError(f"{fill!r} is not a shared fill of case {case_name!r} "
                          f"(its fills: {', '.join(shared_fill_ids(case_name, case)) or 'none'})")
+    if is_sheared_bed_case(case):
+        return f"D{min(case['depths_below_top']):g}-{fill.removeprefix(SHEARED_BED_PREFIX)}"
     if case["geometry"] == "intruder":
         return fill.removeprefix("fill-")
     replica = fill.split("-", 1)[1]
@@ -331,9 +340,26 @@ def fill_physics(config: dict[str, Any], case_name: str, fill: str) -> dict[str,
     (an intruder's rod: its depth is in the fill's id), and the fill's own seed (from its id, so
     any run's own config gives it). A run adopting the fill checks it against its own config's."""
     case = config["cases"][case_name]
-    return {"material": dict(config["material"]), "case": case_name, "fill": fill,
-            "cell": {k: case[k] for k in FILL_CASE_KEYS if k in case},
-            "seed": derived_seed(config["seed"], case_name, fill)}
+    physics = {"material": dict(config["material"]), "case": case_name, "fill": fill,
+               "cell": {k: case[k] for k in FILL_CASE_KEYS if k in case},
+               "seed": derived_seed(config["seed"], case_name, fill)}
+    if is_sheared_bed_case(case):
+        # A sheared bed also depends on its shear: the load, the wall speed and the DEM settings.
+        physics["cell"] |= {k: case[k] for k in SHEARED_BED_CASE_KEYS if k in case}
+        physics["dem"] = {k: v for k, v in case_production(config["dem"], case).items()
+                          if k not in ("mpi_ranks", "mpi_launcher", "liggghts")}
+    return physics
+
+
+#: Prefix of an intruder case's shared pre-sheared beds (``cases.<case>.shared_bed``): ``fill-sheared-r<k>``.
+SHEARED_BED_PREFIX = "fill-sheared-"
+#: Settings of an intruder case that its sheared bed reads besides the fill's.
+SHEARED_BED_CASE_KEYS = ("wall_pressure", "wall_speed", "rod_diameter", "min_shear_strain")
+
+
+def is_sheared_bed_case(case: dict[str, Any]) -> bool:
+    """Whether an intruder case's runs insert their rods into a shared pre-sheared bed (``shared_bed``)."""
+    return case.get("geometry") == "intruder" and bool(case.get("shared_bed", False))
 
 
 def continues_from_slower(case_name: str, case: dict[str, Any], run: str) -> bool:

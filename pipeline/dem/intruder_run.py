@@ -40,9 +40,10 @@ from pipeline.common import atomic
 from pipeline.dem import liggghts_render as render
 from pipeline.common.statistics import integrated_autocorrelation_time
 from pipeline.dem import precision
-from pipeline.common.config import intruder_push, intruder_run, mean_grain_volume
+from pipeline.common.config import intruder_push, intruder_run, is_sheared_bed_case, mean_grain_volume
 from pipeline.dem.liggghts_log import DEMRunError
 from pipeline.dem.planar_run import PlanarShearRun
+from pipeline.dem import sheared_bed
 
 #: Solid fraction assumed for the settled bed when placing the rod (the real depth is recorded).
 BED_SOLID_FRACTION = 0.6
@@ -220,6 +221,23 @@ class IntruderRun(PlanarShearRun):
         self.rod_diameter = float(self.case["rod_diameter"]) * d
         self.rod_length = float(self.case["cell_y"]) * d
         self.n_rod = max(1, int(round(self.case["cell_y"] / ROD_SPACING_OVER_D)))
+        #: The rod goes into the replica's shared pre-sheared bed (pipeline.dem.sheared_bed).
+        self.from_sheared_bed = is_sheared_bed_case(self.case)
+
+    def run(self) -> dict[str, Any]:
+        """Run (or resume) the stages; a run of a case with ``shared_bed`` starts from its replica's bed."""
+        if self.from_sheared_bed and self.fill_from is None:
+            raise DEMRunError(f"{self.label}: cases.{self.case_name}.shared_bed: the rod goes into its replica's sheared bed; "
+                              "give --fill-from that bed's folder (dem/<case>/fill-sheared-r<k>, made with --fill-only)")
+        return super().run()
+
+    def _adopt_fill(self, source: Path) -> None:
+        """A shared fill's packing (the control and its twin), or the replica's sheared bed with
+        this run's rod inserted (:func:`pipeline.dem.sheared_bed.insert_rod`)."""
+        if self.from_sheared_bed:
+            sheared_bed.insert_rod(self, source)
+        else:
+            super()._adopt_fill(source)
 
     # ----------------------------------------------------------------------------- the force
     def yield_force_estimate(self) -> float:
@@ -284,8 +302,13 @@ class IntruderRun(PlanarShearRun):
         return self.n_rod
 
     def _chunk_variables(self, stage: str) -> dict[str, object]:
-        return {"rod_force_per_grain": self._chunk_force(stage) / self.n_rod,
-                "intruder_file": f"series/intruder_{stage}.txt"}
+        out: dict[str, object] = {"rod_force_per_grain": self._chunk_force(stage) / self.n_rod,
+                                  "intruder_file": f"series/intruder_{stage}.txt"}
+        if self.from_sheared_bed and not self.state["chunks"]:
+            # A sheared bed already flows: its velocities are kept (a Couette ramp would replace its
+            # creep profile by a linear one). A control's wall is at rest: the ramp to 0 stops the grains.
+            out["first_chunk"] = int(self.control)
+        return out
 
     def _chunk_force(self, stage: str) -> float:
         """Total push (N) during one chunk: constant here; a staircase in :class:`YieldProbe`."""
@@ -385,6 +408,11 @@ class IntruderRun(PlanarShearRun):
         d = self.mat["d"]
         rod = self.state["intruder"]
         record["particle_count"] += rod["n_grains"]
+        inserted = rod.get("inserted")
+        if inserted is not None:
+            # The grains left around the rod in the sheared bed, not the case's n_grains.
+            record["particle_count"] += inserted["flowing_grains"] - record["flowing_grains"]
+            record["flowing_grains"] = inserted["flowing_grains"]
         # The measuring window is the production window, after the wall's steady state was
         # detected: the rod's own start-up (it starts at rest in a bed just loaded by the wall and
         # the Couette start of the first chunk) lasts longer than the wall's. Seen on reduced runs:
@@ -430,6 +458,8 @@ class IntruderRun(PlanarShearRun):
             "arrested": creep.arrested,
             "speed_blocks": SPEED_BLOCKS,
             "halves": production_halves(series["time"].to_numpy(), series["x"].to_numpy(), self.rest_speed()),
+            # None, or the sheared bed the rod went into: its grains removed, the settling allowed for.
+            "inserted": inserted,
         }
         return record
 

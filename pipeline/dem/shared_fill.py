@@ -5,7 +5,10 @@ Two kinds of runs start from the same settled packing (:func:`pipeline.common.co
 - the rheometer's states of one replica, with ``cases.rheometer.shared_fill``: they differ only in
   the wall speed and load of their shear stage, which the fill does not read;
 - an intruder case's shallowest run and its control (the same run with the top wall at rest),
-  which by design share their packing: the control used to pour it again from the same seed.
+  which by design share their packing: the control used to pour it again from the same seed;
+- with ``cases.<intruder>.shared_bed``, every run of an intruder replica: the fill is then a bed
+  poured without the rod and sheared to steady state (:mod:`pipeline.dem.sheared_bed`), into
+  which each run inserts its rod.
 
 The fill runs once in ``dem/<case>/fill-<...>/`` as its owner run's own fill would (the owner's
 config and bodies, the fill's own seed); each run that starts from it copies its restart
@@ -24,18 +27,22 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from pipeline.common.config import fill_owner_run, fill_physics
+from pipeline.common.config import fill_owner_run, fill_physics, is_sheared_bed_case
 from pipeline.common.formats import RUN_FORMAT_VERSION
 from pipeline.common.provenance import provenance
 from pipeline.dem import liggghts_render as render
 from pipeline.dem.intruder_run import IntruderRun
 from pipeline.dem.planar_run import PlanarShearRun
+from pipeline.dem.sheared_bed import ShearedBed
 
 
 def run_shared_fill(config: dict[str, Any], case_name: str, fill: str, run_dir: Path) -> dict[str, Any]:
     """Pour and settle the fill ``fill`` of ``case_name`` into ``run_dir``; return its ``fill.json`` record."""
     case = config["cases"][case_name]
     owner = fill_owner_run(case_name, case, fill)
+    if is_sheared_bed_case(case):
+        # Poured without the rod and sheared to steady state; each run inserts its own rod.
+        return ShearedBed(config, case_name, fill, run_dir).run()
     runner_class = IntruderRun if case["geometry"] == "intruder" else PlanarShearRun
     # The owner run's own set-up (cell, bodies), filling this folder instead of its own.
     runner = runner_class(config, case_name, owner, run_dir)

@@ -13,6 +13,7 @@ from typing import Any
 from pipeline.common.config import (RHEOMETER, ConfigError, calibration_runs, dem_runs, nonlocal_runs, fill_owner_run, predecessor_state, run_config,
                                     shared_fill_of, validate_config)
 from pipeline.common.layout import fields_paths, root
+from pipeline.workflow.priorities import AFTER_DEM_PRIORITY, dem_priority
 
 
 def user_error(message: str) -> None:
@@ -186,3 +187,9 @@ def python_path_prefix() -> str:
 def intruder_run_jsons(wildcards: Any, config: dict[str, Any]) -> list[str]:
     """run.json of every run of the intruder case named by the wildcards."""
     return [str(root(config) / "dem" / c / r / "run.json") for c, r in dem_runs(config) if c == wildcards.case]
+
+
+def dem_job_priority(config: dict[str, Any], case: str, job: str) -> int:
+    """Snakemake ``priority`` of a DEM run or shared fill: its upward rank (:mod:`pipeline.workflow.priorities`).
+    Every rule after the DEM has :data:`AFTER_DEM_PRIORITY`."""
+    return dem_priority(config, case, job)

@@ -12,9 +12,16 @@ from typing import Any
 import numpy as np
 import pytest
 
-from pipeline.common.config import dem_runs, intruder_push, intruder_run, load_config
+import math
+
+import pandas as pd
+
+from pipeline.common.config import (dem_runs, fill_owner_run, fill_physics, intruder_push, intruder_run, load_config,
+                                    mean_grain_volume, shared_fill_ids, shared_fill_of)
 from pipeline.dumps.reader import read_particles
 from pipeline.dem.intruder_run import CreepSpeed, creep_speed, production_halves, rod_speed_settled, unwrap
+from pipeline.dem.sheared_bed import (BED_SOLID_FRACTION, SETTLING_SHARE, bed_config, displaced_grains, expected_settling,
+                                      overlapping, plan_insertion)
 
 REPO = Path(__file__).resolve().parents[3]
 D = 0.002
@@ -135,6 +142,82 @@ def test_configs_enumerate_depths_and_a_control(name: str) -> None:
     assert not any(intruder_run(run)[1] for run in sweep)
     if name.endswith("ci.yaml"):
         assert len(every) <= 5
+
+
+# ------------------------------------------------------------------- the shared sheared bed
+def _random_bed(rng: np.random.Generator, lx: float, ly: float, height: float, n: int) -> pd.DataFrame:
+    """Flowing grains (type 1) at uniformly random centres (a Poisson bed) with the default's five
+    diameters in equal numbers, and a flat top-wall layer (type 3) at ``height``."""
+    diameters = D * np.array([0.8, 0.9, 1.0, 1.1, 1.2])
+    grains = pd.DataFrame({"id": np.arange(1, n + 1), "type": 1, "x": rng.uniform(0, lx, n), "y": rng.uniform(0, ly, n),
+                           "z": rng.uniform(0, height, n), "radius": 0.5 * rng.choice(diameters, n)})
+    top = pd.DataFrame({"id": np.arange(n + 1, n + 11), "type": 3, "x": rng.uniform(0, lx, 10), "y": rng.uniform(0, ly, 10),
+                        "z": height, "radius": 0.5 * D})
+    return pd.concat([grains, top], ignore_index=True)
+
+
+def test_overlap_is_the_rod_radius_plus_the_grain_s_across_the_periodic_boundary() -> None:
+    lx, radius = 8 * D, 1.5 * D
+    # Grains just inside and just outside contact, one of them through the periodic x boundary.
+    grains = pd.DataFrame({"x": [0.25 * lx + 1.999 * D, 0.25 * lx + 2.001 * D, 0.25 * lx - 1.999 * D + lx, 0.25 * lx - 2.001 * D + lx],
+                           "z": [0.0, 0.0, 0.0, 0.0], "radius": [0.5 * D] * 4})
+    assert list(overlapping(grains, 0.25 * lx, 0.0, radius, lx)) == [True, False, True, False]
+
+
+def test_the_rod_goes_in_without_overlap_at_its_depth(rng: np.random.Generator) -> None:
+    lx, ly, height = 8 * D, 3 * D, 14 * D
+    n = int(BED_SOLID_FRACTION * lx * ly * height / mean_grain_volume(D, 0.2, 5))
+    bed = _random_bed(rng, lx, ly, height, n)
+    radius, depth, settling = 1.5 * D, 5 * D, 0.4 * D
+    plan = plan_insertion(bed, 0.25 * lx, depth, radius, lx, settling)
+    grains = bed[bed["type"] == 1]
+    gone = grains["id"].isin(plan.removed_ids).to_numpy()
+    hit = overlapping(grains, 0.25 * lx, plan.z_rod, radius, lx)
+    # Exactly the grains the rod overlaps leave: none left overlaps it, none leaves needlessly.
+    assert np.array_equal(gone, hit) and gone.any()
+    # The axis lies depth below the top wall once the top wall has fallen by the settling.
+    assert height - settling - plan.z_rod == pytest.approx(depth)
+
+
+def test_the_bed_is_poured_with_the_grains_the_rod_displaces(rng: np.random.Generator) -> None:
+    """displaced_grains is the expected count of grains overlapping the rod in a bed at the bed's
+    solid fraction: on Poisson beds (60 draws) the mean count agrees within 3 standard errors."""
+    config = load_config(REPO / "config/config.yaml")
+    case = config["cases"]["intruder"]
+    d = config["material"]["d"]
+    lx, ly, height = case["cell_x"] * d, case["cell_y"] * d, 16 * d
+    n = int(round(BED_SOLID_FRACTION * lx * ly * height / mean_grain_volume(d, 0.2, 5)))
+    counts = []
+    for _ in range(60):
+        bed = _random_bed(rng, lx, ly, height, n)
+        counts.append(overlapping(bed[bed["type"] == 1], 0.5 * lx, 0.5 * height, 0.5 * case["rod_diameter"] * d, lx).sum())
+    expected = displaced_grains(config, case)
+    assert abs(np.mean(counts) - expected) < 3.0 * np.std(counts, ddof=1) / math.sqrt(len(counts)) + 0.5
+    # The settling is the share of the displaced grains' bulk volume the rod does not fill.
+    bulk = expected * mean_grain_volume(d, 0.2, 5) / BED_SOLID_FRACTION - math.pi * (0.5 * case["rod_diameter"] * d) ** 2 * ly
+    assert expected_settling(config, case) == pytest.approx(SETTLING_SHARE * bulk / (lx * ly))
+    planar = bed_config(config, "intruder")["cases"]["intruder"]
+    assert planar["geometry"] == "planar_shear" and planar["n_grains"] == case["n_grains"] + expected
+    assert "rod_diameter" not in planar and planar["wall_speed"] == case["wall_speed"]
+
+
+def test_a_replica_s_runs_share_one_sheared_bed_and_replicas_do_not() -> None:
+    config = load_config(REPO / "config/config.yaml")
+    case = config["cases"]["intruder"] | {"shared_bed": True}
+    config["cases"]["intruder"] = case
+    runs = [run for c, run in dem_runs(config) if c == "intruder"]
+    beds = shared_fill_ids("intruder", case)
+    assert beds == [f"fill-sheared-r{k + 1}" for k in range(case["replicas"])]
+    for run in runs:
+        assert shared_fill_of("intruder", case, run) == f"fill-sheared-{intruder_run(run)[2]}"
+    # Each bed is poured from its own seed; it is set up from a run of its own replica.
+    seeds = {fill_physics(config, "intruder", bed)["seed"] for bed in beds}
+    assert len(seeds) == len(beds)
+    assert all(fill_owner_run("intruder", case, bed) in runs and fill_owner_run("intruder", case, bed).endswith(bed[-3:])
+               for bed in beds)
+    # A bed made at another wall speed or load is not this config's bed.
+    other = {**config, "cases": {"intruder": case | {"wall_speed": 0.2}}}
+    assert fill_physics(other, "intruder", beds[0]) != fill_physics(config, "intruder", beds[0])
 
 
 # ------------------------------------------------------------------------------ real LIGGGHTS
