@@ -246,7 +246,14 @@ def fit_law(mu: np.ndarray, slope_d: np.ndarray, slope_err_d: np.ndarray | None,
     if n < needed or (beta_fixed is None and np.ptp(x) == 0):
         raise DecayLengthError(f"{n} decay rates {side} yield: need {needed} or more over a range of mu")
     exact = slope_err_d is None
-    beta, inv_c = (0.5 if beta_fixed is None else beta_fixed), float(np.mean(y) / np.mean(x ** 0.5))
+    beta = 0.5 if beta_fixed is None else beta_fixed
+    # The start's amplitude weighs the rows by their errors, so that rows which carry no
+    # information (a window below its noise, error the whole slope range) cannot flip its sign.
+    if exact:
+        inv_c = float(np.mean(y) / np.mean(x ** 0.5))
+    else:
+        w0 = 1.0 / np.asarray(slope_err_d, dtype=float)[below] ** 2
+        inv_c = float(np.sum(w0 * y) / np.sum(w0 * x ** 0.5))
     sigma = None
     for _ in range(4):
         if not exact:

@@ -159,24 +159,23 @@ def calibration_wall_ratio(bed: Bed, mat: Material, mu_s: float) -> float:
 
 def log_speed(depth: np.ndarray, mu: np.ndarray, law: Law, d: float) -> np.ndarray:
     """ln(u / V) at ``depth`` (m, increasing) for the stress ratio ``mu`` there: the band's linear
-    fall above yield, the law below (trapezoidal integral of k on a fine grid)."""
+    fall above yield, the law below. The integral of k runs on a grid clustered quadratically at
+    the yield depth, midpoint rule, so that k's divergence there for beta < 0 (integrable for
+    beta > -1) is integrated to better than 0.1 %."""
     fine = np.linspace(0.0, float(depth.max()), 4001)
-    mu_f = np.interp(fine, depth, mu)
-    below = mu_f < law.mu_s
-    if not below.any():
+    gap_f = law.mu_s - np.interp(fine, depth, mu)
+    if not (gap_f > 0).any():
         raise ValueError("the synthetic bed never falls below yield")
-    i_y = int(np.argmax(below))
-    # Yield depth by linear interpolation between the grid points around it.
-    depth_y = fine[i_y] if i_y == 0 else float(np.interp(0.0, [mu_f[i_y] - law.mu_s, mu_f[i_y - 1] - law.mu_s],
-                                                         [fine[i_y], fine[i_y - 1]]))
-    gap = np.clip(law.mu_s - mu_f, 1e-12, None)
-    k = np.where(below, gap**law.beta / law.c / d, 0.0)
-    phase = np.concatenate([[0.0], np.cumsum(0.5 * (k[1:] + k[:-1]) * np.diff(fine))])
-    phase -= np.interp(depth_y, fine, phase)
+    i_y = int(np.argmax(gap_f > 0))
+    depth_y = fine[i_y] if i_y == 0 else float(np.interp(0.0, [gap_f[i_y - 1], gap_f[i_y]], [fine[i_y - 1], fine[i_y]]))
+    s = np.linspace(0.0, 1.0, 20001)
+    grid = depth_y + (fine[-1] - depth_y) * s**2
+    mid = 0.5 * (grid[1:] + grid[:-1])
+    gap = np.clip(law.mu_s - np.interp(mid, depth, mu), 1e-300, None)
+    phase = np.concatenate([[0.0], np.cumsum(gap**law.beta / law.c / d * np.diff(grid))])
     ln_y = math.log(U_YIELD_OVER_V)
-    band = ln_y * fine / max(depth_y, 1e-12)
-    ln_u = np.where(fine < depth_y, band, ln_y - phase)
-    return np.interp(depth, fine, ln_u)
+    band = ln_y * depth / max(depth_y, 1e-300)
+    return np.where(depth < depth_y, band, ln_y - np.interp(depth, grid, phase))
 
 
 def calibrated_law(beta: float, mu_s: float, scene: Scene) -> Law:

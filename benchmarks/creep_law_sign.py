@@ -1,0 +1,159 @@
+"""Is the creep law's negative exponent real? Known answers, and the default under both window rules.
+
+    python benchmarks/creep_law_sign.py coverage [--n 100] [--betas ...] [--beds ...] [--seed S] [--noise JSON]
+    python benchmarks/creep_law_sign.py default ROOT [--runs 'r*'] [--mu-s MU_S]
+
+``coverage``: synthetic replica fields of the default's planar beds (config/config.yaml's geometry,
+:mod:`pipeline.scoring.synthetic_creep` for the noise) with a known beta, pushed through
+:mod:`pipeline.scoring.decay_length` under both window rules (``resolved``, the workflow's, and
+``fixed_depth``); per true beta and rule: the recovered beta's mean, its bias and that bias's
+standard error, the realisations' scatter against the stated error, and the share of the stated
+68 % and 95 % intervals that cover the truth (binomial standard error beside each).
+
+``default``: beta of an output root's planar DEM fields (``ROOT/fields/<case>/<runs>.nc``, mu_s
+from ``ROOT/calibration/params.json`` unless given) under both rules: pooled over the cases, as
+``validation/decay_length_fit.csv`` (all windows, and u / V < 0.01), and per case; with each fit's
+stated error, the replicas' error scale, the model selection's delta AIC and, beside the stated
+error, the leave-one-run-out jackknife error (which holds whatever the windows of a run share).
+
+Measurements side by side, never asserted (the test is tests/pipeline/scoring/test_decay_length_synthetic.py).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+from pipeline.common.config import load_config  # noqa: E402
+from pipeline.scoring import synthetic_creep as synthetic  # noqa: E402
+from pipeline.scoring.decay_length import (BAND_EDGE, RULES, DecayLengthError, fit_law, scaled_windows,  # noqa: E402
+                                           select_model)
+
+CASES = ("shear_gravity", "shear_gravity_fast", "shear_gravity_heavy")
+
+
+def beta_of(windows: pd.DataFrame, mu_s: float, d: float) -> dict[str, float]:
+    """The law's fit on ``windows`` (the workflow's, :func:`fit_law`) with the model selection."""
+    fit = fit_law(windows.mu.values, windows.slope.values * d, windows.slope_err.values * d, windows.mu_err.values, mu_s)
+    return fit | {"delta_aic": select_model(windows, mu_s, d)["delta_aic"]}
+
+
+def jackknife_error(windows: pd.DataFrame, mu_s: float, d: float) -> float:
+    """Leave-one-run-out jackknife standard error of beta over the runs in ``windows``."""
+    runs = list(windows.groupby(["case", "run"]).groups)
+    if len(runs) < 3:
+        return math.nan
+    betas = []
+    for case, run in runs:
+        keep = ~((windows.case == case) & (windows.run == run))
+        betas.append(fit_law(windows.mu.values[keep], windows.slope.values[keep] * d, windows.slope_err.values[keep] * d,
+                             windows.mu_err.values[keep], mu_s)["beta"])
+    b = np.asarray(betas)
+    return float(math.sqrt((b.size - 1) / b.size * np.sum((b - b.mean()) ** 2)))
+
+
+def coverage(args: argparse.Namespace) -> int:
+    config = load_config(args.config)
+    scene = synthetic.beds_from_config(config, tuple(args.beds))
+    scene.noise = synthetic.Noise(**json.loads(args.noise))
+    d = scene.material.d
+    print(f"synthetic beds {', '.join(f'{b.name} x{b.replicas}' for b in scene.beds)}; mu_s {args.mu_s}; noise {scene.noise}")
+    print(f"{args.n} realisations per beta (seeds {args.seed}..{args.seed + args.n - 1}); fit over all windows below yield")
+    header = (f"{'beta':>6} {'rule':>12} {'mean':>7} {'bias':>7} {'+-':>6} {'sd':>6} {'err':>6} {'sd/err':>6} "
+              f"{'cov68':>6} {'cov95':>6} {'+-':>5} {'windows':>7} {'scale':>6}")
+    print(header)
+    for beta in args.betas:
+        law = synthetic.calibrated_law(beta, args.mu_s, scene)
+        got: dict[str, list[tuple[float, float, float, int]]] = {rule: [] for rule in RULES}
+        start = time.perf_counter()
+        for k in range(args.n):
+            sets = synthetic.replica_set(scene, law, np.random.default_rng(args.seed + k))
+            for rule in RULES:
+                windows, scale, _ = scaled_windows(sets, args.mu_s, rule)
+                fit = fit_law(windows.mu.values, windows.slope.values * d, windows.slope_err.values * d,
+                              windows.mu_err.values, args.mu_s)
+                got[rule].append((fit["beta"], fit["beta_err"], scale, len(windows)))
+        for rule, rows in got.items():
+            a = np.asarray(rows)
+            pull = (a[:, 0] - beta) / a[:, 1]
+            c68, c95 = float(np.mean(np.abs(pull) < 1.0)), float(np.mean(np.abs(pull) < 1.959964))
+            print(f"{beta:+6.2f} {rule:>12} {a[:, 0].mean():+7.3f} {a[:, 0].mean() - beta:+7.3f} "
+                  f"{a[:, 0].std(ddof=1) / math.sqrt(args.n):6.3f} {a[:, 0].std(ddof=1):6.3f} {a[:, 1].mean():6.3f} "
+                  f"{a[:, 0].std(ddof=1) / a[:, 1].mean():6.2f} {c68:6.2f} {c95:6.2f} "
+                  f"{math.sqrt(0.95 * 0.05 / args.n):5.3f} {a[:, 3].mean():7.0f} {a[:, 2].mean():6.2f}")
+        print(f"       ({time.perf_counter() - start:.0f} s)", flush=True)
+    return 0
+
+
+def default(args: argparse.Namespace) -> int:
+    root = args.root
+    params_path = root / "calibration" / "params.json"
+    if args.mu_s is not None:
+        mu_s, source = args.mu_s, "--mu-s"
+    elif params_path.exists():
+        mu_s, source = float(json.loads(params_path.read_text())["local"]["mu_s"]["value"]), str(params_path)
+    else:
+        print(f"{params_path}: not there (the calibration has not run); give --mu-s", file=sys.stderr)
+        return 1
+    files = [f for case in CASES for f in sorted((root / "fields" / case).glob(f"{args.runs}.nc"))]
+    if not files:
+        print(f"{root}/fields/<planar case>/{args.runs}.nc: no fields files", file=sys.stderr)
+        return 1
+    import xarray as xr
+    with xr.open_dataset(files[0]) as ds:
+        d = float(ds.attrs["d"])
+    print(f"{len(files)} fields files under {root}/fields ({', '.join(f'{f.parent.name}/{f.stem}' for f in files)})")
+    print(f"mu_s {mu_s:.4f} ({source})")
+    rows = []
+    for rule in RULES:
+        windows, scale, pairs = scaled_windows([(f, "calibration" if f.parent.name == CASES[0] else "held_out")
+                                                for f in files], mu_s, rule)
+        subsets = [("pooled, all windows", windows), (f"pooled, u/V < {BAND_EDGE:g}", windows[windows.u_over_V < BAND_EDGE])]
+        subsets += [(case, windows[windows.case == case]) for case in CASES if (windows.case == case).any()]
+        for name, sub in subsets:
+            row = {"rule": rule, "windows": name, "n": int((sub.mu < mu_s).sum()), "scale": scale, "pairs": pairs}
+            try:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    fit = beta_of(sub, mu_s, d)
+                    row |= {"beta": fit["beta"], "beta_err": fit["beta_err"], "jackknife_err": jackknife_error(sub, mu_s, d),
+                            "chi2_red": fit["chi2_reduced"], "delta_aic": fit["delta_aic"],
+                            "mu/mu_s": f"{fit['mu_over_mu_s_min']:.2f}-{fit['mu_over_mu_s_max']:.2f}"}
+            except (DecayLengthError, RuntimeError) as exc:
+                row["note"] = str(exc)
+            rows.append(row)
+    with pd.option_context("display.width", 200, "display.max_columns", 20, "display.float_format", "{:.3f}".format):
+        print(pd.DataFrame(rows).to_string(index=False))
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+    cov = sub.add_parser("coverage", help="the recovered beta against known answers, both rules")
+    cov.add_argument("--config", default="config/config.yaml", help="the geometry's config (default: the default's)")
+    cov.add_argument("--n", type=int, default=100, help="realisations per beta")
+    cov.add_argument("--betas", type=float, nargs="+", default=[-0.5, -0.16, 0.0, 0.5, 1.0])
+    cov.add_argument("--beds", nargs="+", default=list(CASES))
+    cov.add_argument("--mu-s", type=float, default=0.378, help="the synthetic mu_s (the default's calibration: 0.37-0.38)")
+    cov.add_argument("--seed", type=int, default=1000, help="first realisation's seed")
+    cov.add_argument("--noise", default="{}", help='changes to the noise, JSON (e.g. \'{"ageing_exponent": 0}\')')
+    dft = sub.add_parser("default", help="beta of an output root's planar fields under both rules")
+    dft.add_argument("root", type=Path)
+    dft.add_argument("--runs", default="r*", help="glob of the run ids (size-study runs: 'L16-r*')")
+    dft.add_argument("--mu-s", type=float, default=None)
+    args = parser.parse_args(argv)
+    return coverage(args) if args.command == "coverage" else default(args)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
