@@ -83,7 +83,20 @@ class Bed:
 
 @dataclass(frozen=True)
 class Noise:
-    """The measurement's noise (module docstring); defaults measured on the default run."""
+    """The measurement's noise (module docstring). Where the defaults come from:
+
+    - ``cage_over_d``: puts the calibration case's deep error (16 strain units, 12-17 d) at
+      1-2.5e-4 V, the default's (docs/dem.md: u / err 0.87 at 12 d, u / V 2e-4, after 8 strain;
+      halved at 16 by 1 / T);
+    - ``hop_over_d``: a diffusive part well under the caged one at depth (the replica means' error
+      fell as T^-0.83, mostly 1 / T);
+    - ``packing_decades``, ``packing_length_over_d``: a frozen offset between packings of 0.05
+      decade over 2 d, beside the grains' own sampling (the stated structure error);
+    - ``tau_rel``: the replicas' wall friction scatter (0.005 in mu of about 0.45);
+    - ``mu_point_err``: the precision target of mu (0.005), per point;
+    - the ageing: docs/dem.md, "The deep creep ages" (-0.49 to -0.65 below 5 d, -0.07 above);
+    - ``blocks``: the coarse-graining's batch-means blocks.
+    ``benchmarks/creep_law_sign.py default ROOT`` prints a DEM root's profiles beside these."""
 
     cage_over_d: float = 0.25
     hop_over_d: float = 0.02

@@ -7,6 +7,7 @@ import dataclasses
 import functools
 import math
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -14,8 +15,10 @@ from scipy import stats
 
 from pipeline.common.config import load_config
 from pipeline.scoring import synthetic_creep as synthetic
-from pipeline.scoring.decay_length import RULES, fit_law, scaled_windows, likelihood_slope
-from tests.conftest import REPO
+from pipeline.scoring.creep_windows import RULES, likelihood_slope
+from pipeline.scoring.decay_length import fit_law, scaled_windows
+
+REPO = Path(__file__).resolve().parents[3]
 
 MU_S = 0.378
 #: The default's pooled beta over all windows (docs/validation.md).
