@@ -285,12 +285,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--fields", required=True, nargs="+", type=Path, help="fields/CASE/RUN.nc of the planar cases")
     parser.add_argument("--models", nargs="*", default=[], type=Path, help="models/CASE/MODEL.nc of the planar cases")
     parser.add_argument("--out", required=True, type=Path, help="validation/decay_length.csv (fits beside it)")
+    parser.add_argument("--rule", choices=RULES, default="resolved",
+                        help="the windows' selection rule (pipeline.scoring.creep_windows; the workflow's: resolved)")
     args = parser.parse_args(argv)
     params = json.loads(args.params.read_text())
     mu_s, d = float(params["local"]["mu_s"]["value"]), float(params["d"])
     calibrated = calibration_cases(params)
     dem, scale, pairs = scaled_windows([(f, "calibration" if f.parent.name in calibrated else "held_out")
-                                        for f in args.fields], mu_s)
+                                        for f in args.fields], mu_s, args.rule)
     dem = dem[COLUMNS]
     fields = {(f.parent.name, f.stem): f for f in args.fields}
     models = pd.concat([model_rows(f, dem, mu_s, d, fields) for f in args.models] or [pd.DataFrame(columns=MODEL_COLUMNS)],
@@ -300,7 +302,7 @@ def main(argv: list[str] | None = None) -> int:
     atomic.write_csv(dem, args.out)
     atomic.write_csv(models, args.out.with_name("decay_length_models.csv"))
     atomic.write_csv(fits, args.out.with_name("decay_length_fit.csv"))
-    atomic.write_text(json.dumps({"mu_s": mu_s, "window_over_d": WINDOW_OVER_D, "creep_fraction": CREEP_FRACTION,
+    atomic.write_text(json.dumps({"mu_s": mu_s, "window_rule": args.rule, "window_over_d": WINDOW_OVER_D, "creep_fraction": CREEP_FRACTION,
                                   "band_edge": BAND_EDGE, "slope_error_scale": scale, "slope_error_scale_pairs": pairs,
                                   "provenance": meta}, indent=1), args.out.with_name("decay_length.json"))
     print(f"{len(dem)} DEM windows from {len(args.fields)} runs; slope errors scaled by {scale:.3g} "
