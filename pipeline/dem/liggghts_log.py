@@ -1,4 +1,4 @@
-"""Read what a LIGGGHTS run printed and decide whether it failed.
+"""Read what a LIGGGHTS (or LAMMPS: the same log format) run printed and decide whether it failed.
 
 A run fails loudly when the binary exits non-zero, when its log holds an ``ERROR`` line (this is
 how ``thermo_modify lost error`` reports lost grains), or when the log ends before the run's
@@ -20,19 +20,19 @@ class DEMRunError(RuntimeError):
 _ERROR = re.compile(r"^(ERROR.*)$", re.MULTILINE)
 
 
-def check_run(label: str, log_path: Path, returncode: int, stderr: str = "") -> None:
-    """Raise :class:`DEMRunError` if the LIGGGHTS call behind ``log_path`` failed."""
+def check_run(label: str, log_path: Path, returncode: int, stderr: str = "", engine: str = "LIGGGHTS") -> None:
+    """Raise :class:`DEMRunError` if the ``engine`` call behind ``log_path`` failed."""
     text = log_path.read_text(errors="replace") if log_path.exists() else ""
     errors = _ERROR.findall(text) + _ERROR.findall(stderr)
     if errors:
         lost = [e for e in errors if "Lost atoms" in e or "lost atoms" in e.lower()]
         cause = "lost grains: " + lost[0] if lost else errors[0]
-        raise DEMRunError(f"{label}: LIGGGHTS reported {cause} (log: {log_path})")
+        raise DEMRunError(f"{label}: {engine} reported {cause} (log: {log_path})")
     if returncode != 0:
         tail = "\n".join((text or stderr).strip().splitlines()[-5:])
-        raise DEMRunError(f"{label}: LIGGGHTS exited with code {returncode} (log: {log_path}); last lines:\n{tail}")
+        raise DEMRunError(f"{label}: {engine} exited with code {returncode} (log: {log_path}); last lines:\n{tail}")
     if not text:
-        raise DEMRunError(f"{label}: LIGGGHTS wrote no log at {log_path}")
+        raise DEMRunError(f"{label}: {engine} wrote no log at {log_path}")
     if "Loop time of" not in text:
         raise DEMRunError(f"{label}: log {log_path} ends before any run finished (killed or crashed?)")
 

@@ -1,0 +1,111 @@
+"""The LIGGGHTS adapter: templates in ``liggghts_inputs/``, the ``liggghts`` binary (Debian's 3.8,
+Open MPI), its logs read by :mod:`pipeline.dem.liggghts_log`, its dumps already in the store's format."""
+from __future__ import annotations
+
+import os
+import shlex
+import shutil
+import subprocess
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from pipeline.dem import liggghts_render as render
+from pipeline.dem.engines import CONTACT_COLUMNS, DELTA_COLUMN
+from pipeline.dem.liggghts_log import DEMRunError, check_run
+
+
+@dataclass
+class Launcher:
+    """How LIGGGHTS is started: ``[mpi_launcher -n ranks] liggghts``."""
+
+    liggghts: str
+    mpi_launcher: str = ""
+    ranks: int = 1
+
+    def command(self, input_name: str, log_name: str) -> list[str]:
+        binary = shutil.which(self.liggghts)
+        if binary is None:
+            raise DEMRunError(f"LIGGGHTS executable {self.liggghts!r} not found on PATH (install the Debian package 'liggghts')")
+        # Screen output is kept (sent to a file by the caller): LIGGGHTS 3.8 crashes in some
+        # fixes (wall/gran primitive) when started with '-screen none'.
+        cmd = [binary, "-in", input_name, "-log", log_name]
+        if self.mpi_launcher and self.mpi_launcher != "none":
+            launcher = shlex.split(self.mpi_launcher)
+            if shutil.which(launcher[0]) is None:
+                raise DEMRunError(f"MPI launcher {launcher[0]!r} not found on PATH")
+            cmd = [*launcher, "-n", str(self.ranks), *cmd]
+        return cmd
+
+
+def _mpi_environment() -> dict[str, str]:
+    env = dict(os.environ)
+    # Open MPI refuses to start as root unless told; CI and containers run as root.
+    env.setdefault("OMPI_ALLOW_RUN_AS_ROOT", "1")
+    env.setdefault("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
+    env.setdefault("OMPI_MCA_rmaps_base_oversubscribe", "1")
+    # Open MPI binds a run's ranks to cores counted from core 0, each launch on its own: two
+    # concurrent runs of one rank (the workflow's jobs on 2 cores) were both pinned to core 0,
+    # sharing it while the other core idled (measured: 48 % idle, both at 50 %). Unbound, the
+    # kernel spreads them. (Under SLURM, srun places the ranks and this is not read.)
+    env.setdefault("OMPI_MCA_hwloc_base_binding_policy", "none")
+    return env
+
+
+def run_liggghts(launcher: Launcher, run_dir: Path, stage: str, label: str) -> float:
+    """Run ``in.<stage>`` in ``run_dir``; return wall-clock seconds. Raises :class:`DEMRunError`."""
+    log = Path("logs") / f"{stage}.log"
+    (run_dir / "logs").mkdir(exist_ok=True)
+    screen = run_dir / "logs" / f"{stage}.screen"
+    start = time.perf_counter()
+    with screen.open("w") as out:
+        proc = subprocess.run(
+            launcher.command(f"in.{stage}", str(log)),
+            cwd=run_dir,
+            stdout=out,
+            stderr=subprocess.STDOUT,
+            env=_mpi_environment(),
+            check=False,
+        )
+    seconds = time.perf_counter() - start
+    check_run(f"{label} stage {stage}", run_dir / log, proc.returncode, screen.read_text(errors="replace"))
+    return seconds
+
+
+class LiggghtsEngine:
+    """LIGGGHTS 3.8: ``pair_style gran model hertz tangential history``, ``newton off``."""
+
+    name = "liggghts"
+    #: Solid fraction of the loose insertion region (insert/pack places the grains by itself).
+    insertion_solid_fraction = 0.25
+
+    def __init__(self, liggghts: str, mpi_launcher: str = "", ranks: int = 1) -> None:
+        self.launcher = Launcher(liggghts, mpi_launcher, ranks)
+
+    def check_geometry(self, geometry: str, label: str) -> None:
+        try:
+            render.template_files(geometry)
+        except render.TemplateError as exc:
+            raise DEMRunError(f"{label}: {exc}") from None
+
+    def copy_templates(self, geometry: str, run_dir: Path) -> None:
+        render.copy_templates(geometry, run_dir)
+
+    def render_stage(self, run_dir: Path, stage: str, template: str, variables: dict[str, object]) -> Path:
+        return render.render_stage(run_dir, stage, template, variables)
+
+    def grains_include(self, d: float, polydispersity: float, n_sizes: int, rho_s: float,
+                       seeds: list[int], distribution_seed: int) -> str:
+        return render.grains_include(d, polydispersity, n_sizes, rho_s, seeds, distribution_seed)
+
+    def launch(self, run_dir: Path, stage: str, label: str) -> float:
+        return run_liggghts(self.launcher, run_dir, stage, label)
+
+    def chunk_variables(self, run_dir: Path, variables: dict[str, Any]) -> dict[str, object]:
+        # pair/gran/local writes CONTACT_COLUMNS in order; the overlap is its DELTA_COLUMN-th output.
+        return {"delta_column": DELTA_COLUMN,
+                "contact_columns": [f"c_pgl[{k}]" for k in range(1, len(CONTACT_COLUMNS) + 1)]}
+
+    def finish_chunk(self, run_dir: Path, variables: dict[str, Any]) -> None:
+        """LIGGGHTS's dumps are already in the store's format."""
