@@ -7,14 +7,16 @@ Public API::
     result = intruder_speed("ngf", geometry, params, RodIntruder(D, z_i, F), cell_length_x)
     result.speed, result.fields  # m s-1; xr.Dataset on (z, x)
 
-See docs/intruder.md for the equations, boundary conditions and which models are solved in 2D.
+A model plugs into the 2D framework by subclassing ``RodSolver`` (framework.py) and registering
+in ``INTRUDER_MODELS`` (api.py). See docs/intruder.md for the equations and what is solved.
 """
 from __future__ import annotations
 
-from .api import INTRUDER_MODELS, intruder_speed
+from .api import INTRUDER_MODELS, IntruderModel, intruder_speed
+from .framework import ExtraStress, Flow, RodSolution, RodSolver
 from .local import YieldForce, yield_force
-from .ngf2d import solve_2d
+from .ngf2d import NGFRodSolver, solve_2d
 from .scene import GridOptions, IntruderSpeed, RodIntruder
 
-__all__ = ["RodIntruder", "GridOptions", "IntruderSpeed", "intruder_speed", "INTRUDER_MODELS",
-           "YieldForce", "yield_force", "solve_2d"]
+__all__ = ["RodIntruder", "GridOptions", "IntruderSpeed", "intruder_speed", "INTRUDER_MODELS", "IntruderModel",
+           "RodSolver", "RodSolution", "Flow", "ExtraStress", "NGFRodSolver", "YieldForce", "yield_force", "solve_2d"]

@@ -1,83 +1,88 @@
-"""``intruder_speed``: each model's steady rod speed in the shear_gravity scene."""
+"""``intruder_speed``: each model's steady rod speed in the shear_gravity scene, and the registry
+of how each model makes it (``INTRUDER_MODELS``).
+
+A model's prediction is its own converged 2D solution around the rod: a ``framework.RodSolver``
+subclass registered with ``solver=``. Anything else is a named approximation with a label of its
+own (``ngf_frozen``), or an estimate kept until the model's 2D solver exists (``estimate=``, the
+method saying which). To add a model: write its ``RodSolver`` subclass (``framework.py`` says what
+it implements) and register it here::
+
+    INTRUDER_MODELS["local_mu_i"] = IntruderModel(LocalMuIParameters, solver=MuIRodSolver)
+"""
 from __future__ import annotations
 
 import time
-from typing import Any
+from dataclasses import dataclass
+from typing import Any, Callable
+
+import numpy as np
 
 from .. import solve as solve_planar
 from ..errors import OutOfRangeError
 from ..geometry import PlanarShear
 from ..parameters import CriticalStateParameters, LocalMuIParameters, NGFParameters, VolumeAveragedParameters
+from .framework import RodSolver
 from .local import kinematic_speed, layer_sliding_speed, rod_in_static_zone, yield_force
-from .ngf2d import solve_2d
+from .ngf2d import FROZEN, NGFRodSolver, solve_frozen
 from .scene import GridOptions, IntruderSpeed, RodIntruder
 
-# models with a prediction, and how it is obtained (cosserat: see docs/intruder.md)
-INTRUDER_MODELS: dict[str, str] = {
-    "ngf": "2d",
-    "local_mu_i": "layer_sliding",
-    "critical_state": "yield_check",
-    "volume_averaged": "kinematic",
-}
+Estimate = Callable[[PlanarShear, Any, RodIntruder, float, GridOptions, dict, "str | None"], IntruderSpeed]
 
 
-def intruder_speed(model: str, geometry: PlanarShear, params: Any, intruder: RodIntruder,
-                   cell_length_x: float, grid: GridOptions = GridOptions(), coupling: str = "frozen",
-                   planar_options: dict | None = None, case: str | None = None) -> IntruderSpeed:
-    """Steady speed U (m s-1, along +x) of a rod under force F (N m-1, along +x) held at height
-    z_i in the periodic planar shear cell of period ``cell_length_x`` (m).
+@dataclass(frozen=True)
+class IntruderModel:
+    """How one label's intruder speed is made.
 
-    - ``ngf``: 2D solve (``coupling`` "frozen": far-field fluidity, U = U_drift + F / K;
-      "coupled": the 2D fluidity equation too). Fields returned.
-    - ``local_mu_i``: the rod smeared into a layer of the 1D profile (``layer_sliding_speed``):
-      U = 0 in the static zone below the layer-sliding force, the speed of the layer it slides
-      above it; OutOfRangeError above the bearing (ploughing) estimate.
-    - ``critical_state``: U = 0 if the rod lies in the 1D static zone and F < the yield-force
-      estimate (``yield_force``), else OutOfRangeError (no 2D plastic solve).
-    - ``volume_averaged``: below the yield force the rod is carried by the creep (U independent
-      of F, the disc average of the 1D u_x); OutOfRangeError above it.
-    - ``cosserat``: NotImplementedError (not solved in 2D; see docs/intruder.md).
-
-    ``planar_options`` go to ``continuum.solve`` (e.g. ``nu_initial``, ``n_grid``).
+    Attributes:
+        params_type: the parameter class it takes.
+        solver: the model's 2D solver (its own prediction), or None.
+        estimate: a function (geometry, params, intruder, L_x, grid, planar_options, case) ->
+            IntruderSpeed, for a named approximation or a model without a 2D solver yet.
+        approximates: for an approximation, the model whose parameters it uses (else "").
     """
-    t0 = time.perf_counter()
-    intruder.check_inside(geometry, cell_length_x)
-    opts = dict(planar_options or {})
-    if model == "ngf":
-        if not isinstance(params, NGFParameters):
-            raise TypeError(f"ngf needs NGFParameters, got {type(params).__name__}")
-        out = solve_2d(geometry, params, cell_length_x, intruder, grid, case=case, coupling=coupling)
-        attrs = {k: out[k] for k in ("tau_top", "vertical_force", "torque") if k in out}
-        attrs.update({k: out[k] for k in ("mu_max", "p_min", "fluidity_floor", "floor_at_rod") if k in out})
-        attrs["coupling"] = out["coupling"]
-        attrs["nx"], attrs["nz"] = out["fields"].attrs["nx"], out["fields"].attrs["nz"]
-        return IntruderSpeed(model, out["speed"], out["converged"], out["iterations"], out["residual"],
-                             out["solve_seconds"], out["n_grid"], "2d", out["drift_speed"], out["mobility"],
-                             planar_solve_seconds=out["planar_solve_seconds"], fields=out["fields"], attrs=attrs)
-    if model in ("local_mu_i", "critical_state", "volume_averaged"):
-        expected = {"local_mu_i": LocalMuIParameters, "critical_state": CriticalStateParameters,
-                    "volume_averaged": VolumeAveragedParameters}[model]
-        if not isinstance(params, expected):
-            raise TypeError(f"{model} needs {expected.__name__}, got {type(params).__name__}")
-        t1 = time.perf_counter()
-        planar = solve_planar(model, geometry, params, **opts)
-        planar_seconds = time.perf_counter() - t1
+
+    params_type: type
+    solver: type[RodSolver] | None = None
+    estimate: Estimate | None = None
+    approximates: str = ""
+
+    def __post_init__(self) -> None:
+        if (self.solver is None) == (self.estimate is None):
+            raise ValueError("an IntruderModel has exactly one of solver and estimate")
+
+
+def _ngf_frozen(geometry: PlanarShear, params: NGFParameters, intruder: RodIntruder, cell_length_x: float,
+                grid: GridOptions, planar_options: dict, case: str | None) -> IntruderSpeed:
+    out = solve_frozen(geometry, params, cell_length_x, intruder, grid, case)
+    attrs = {k: out[k] for k in ("tau_top", "vertical_force", "torque", "mu_max", "p_min", "fluidity_floor",
+                                 "floor_at_rod") if k in out}
+    attrs["nx"], attrs["nz"] = out["fields"].attrs["nx"], out["fields"].attrs["nz"]
+    return IntruderSpeed(FROZEN, out["speed"], out["converged"], out["iterations"], out["residual"],
+                         out["solve_seconds"], out["n_grid"], "frozen", out["drift_speed"], out["mobility"],
+                         planar_solve_seconds=out["planar_solve_seconds"], fields=out["fields"], attrs=attrs)
+
+
+def _local_estimate(model: str) -> Estimate:
+    """The 1D estimates of the local and volume-averaged models (``local.py``; docs/intruder.md)."""
+
+    def estimate(geometry: PlanarShear, params: Any, intruder: RodIntruder, cell_length_x: float,
+                 grid: GridOptions, planar_options: dict, case: str | None) -> IntruderSpeed:
+        t0 = time.perf_counter()
+        planar = solve_planar(model, geometry, params, **planar_options)
+        planar_seconds = time.perf_counter() - t0
         sin_phi = {"local_mu_i": lambda q: q.mu_i.mu_s, "critical_state": lambda q: q.sin_phi,
                    "volume_averaged": lambda q: q.critical.sin_phi}[model](params)
         yf = yield_force(planar, sin_phi, intruder, cell_length_x)
         if model == "local_mu_i" and intruder.force_per_length < yf.bearing:
-            # Rate-dependent: below the bearing failure the rod moves with the layer it slides (or
-            # with the 1D flow it sits in, or not at all in the static zone below F_l).
             speed, tau_top = layer_sliding_speed(planar, params.mu_i, geometry, intruder, cell_length_x, case)
             attrs = {"yield_force_bearing": yf.bearing, "yield_force_layer": yf.layer_sliding,
                      "tau_top": tau_top, "tau_top_without_rod": float(planar.attrs["tau"])}
             if intruder.force_per_length >= yf.layer_sliding:
                 method = "layer_sliding"
             else:
-                method = "1d_flow" if speed > 0.0 else "yield_check"  # carried by the 1D flow, or at rest
+                method = "1d_flow" if speed > 0.0 else "yield_check"
             return IntruderSpeed(model, speed, True, 0, 0.0, time.perf_counter() - t0, int(planar.sizes["z"]), method,
-                                 yield_force=yf.value,
-                                 planar_solve_seconds=planar_seconds, attrs=attrs)
+                                 yield_force=yf.value, planar_solve_seconds=planar_seconds, attrs=attrs)
         if intruder.force_per_length >= yf.value:
             raise OutOfRangeError(model, f"F = {intruder.force_per_length:.3g} N/m is above the yield-force "
                                   f"estimate {yf.value:.3g} N/m: the rod fails; no 2D plastic solve here", case)
@@ -95,7 +100,53 @@ def intruder_speed(model: str, geometry: PlanarShear, params: Any, intruder: Rod
         return IntruderSpeed(model, speed, True, 0, 0.0, time.perf_counter() - t0, 0, method,
                              drift_speed=speed, mobility=0.0, yield_force=yf.value,
                              planar_solve_seconds=planar_seconds, attrs=attrs)
-    if model == "cosserat":
-        raise NotImplementedError("cosserat is not solved in 2D (spin and couple-stress fields with a "
-                                  "2D yield-surface solver): see docs/intruder.md")
-    raise KeyError(f"unknown model {model!r}")
+
+    return estimate
+
+
+#: label -> how its intruder speed is made. The models' own 2D solvers register with ``solver=``
+#: (H2's mu(I), critical state, volume-averaged and Cosserat solvers replace the estimates here).
+INTRUDER_MODELS: dict[str, IntruderModel] = {
+    "ngf": IntruderModel(NGFParameters, solver=NGFRodSolver),
+    FROZEN: IntruderModel(NGFParameters, estimate=_ngf_frozen, approximates="ngf"),
+    "local_mu_i": IntruderModel(LocalMuIParameters, estimate=_local_estimate("local_mu_i")),
+    "critical_state": IntruderModel(CriticalStateParameters, estimate=_local_estimate("critical_state")),
+    "volume_averaged": IntruderModel(VolumeAveragedParameters, estimate=_local_estimate("volume_averaged")),
+}
+
+
+def intruder_speed(model: str, geometry: PlanarShear, params: Any, intruder: RodIntruder,
+                   cell_length_x: float, grid: GridOptions = GridOptions(),
+                   planar_options: dict | None = None, case: str | None = None,
+                   warm: IntruderSpeed | None = None) -> IntruderSpeed:
+    """Steady speed U (m s-1, along +x) of a rod under force F (N m-1, along +x) held at height
+    z_i in the periodic planar shear cell of period ``cell_length_x`` (m), by the label's entry
+    in ``INTRUDER_MODELS``.
+
+    ``warm``: an earlier result of the same label on the same grid (its converged fields and
+    pressure start the iteration; e.g. the nominal parameters' solution for a parameter draw).
+    ``planar_options`` go to ``continuum.solve`` (estimates only).
+
+    Raises KeyError (unknown label), TypeError (wrong parameters), ``OutOfRangeError`` (the model
+    refuses the scene: e.g. the bed opens in tension next to the rod), ``ConvergenceError``.
+    """
+    if model not in INTRUDER_MODELS:
+        if model == "cosserat":
+            raise NotImplementedError("cosserat has no intruder solver registered (continuum/intruder/api.py)")
+        raise KeyError(f"unknown intruder model {model!r}; known: {sorted(INTRUDER_MODELS)}")
+    entry = INTRUDER_MODELS[model]
+    if not isinstance(params, entry.params_type):
+        raise TypeError(f"{model} needs {entry.params_type.__name__}, got {type(params).__name__}")
+    intruder.check_inside(geometry, cell_length_x)
+    if entry.estimate is not None:
+        return entry.estimate(geometry, params, intruder, cell_length_x, grid, dict(planar_options or {}), case)
+    solver = entry.solver(geometry, params, cell_length_x, intruder, grid, case)
+    state = None
+    if warm is not None and warm.state is not None and np.size(next(iter(warm.state.values()))) == solver.grid.n_cells:
+        state = warm.state
+    sol = solver.solve(state)
+    attrs = dict(sol.attrs)
+    attrs.update({f"residual_{k}": float(v) for k, v in sol.residuals.items()})
+    return IntruderSpeed(model, sol.speed, sol.converged, sol.iterations, sol.residual, sol.solve_seconds,
+                         sol.n_grid, "2d", attrs.pop("drift_speed"), attrs.pop("mobility"),
+                         planar_solve_seconds=sol.planar_seconds, fields=sol.fields, attrs=attrs, state=sol.state)

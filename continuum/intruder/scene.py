@@ -119,8 +119,9 @@ class IntruderSpeed:
         speed: steady rod speed U along +x (m s-1).
         converged, iterations, residual, solve_seconds, n_grid: as in the contract's model files
             (n_grid = number of 2D cells; 0 when no 2D solve was needed).
-        method: how U was obtained ("2d" for a 2D solve, "yield_check" for the local models,
-            "kinematic" for the volume-averaged model).
+        method: how U was obtained ("2d" for the model's own 2D solve; "frozen" for the
+            ngf_frozen approximation; "yield_check", "layer_sliding", "1d_flow", "kinematic" for
+            the 1D estimates of models without a 2D solver).
         drift_speed: the part of U at zero force with the converged viscosity field (m s-1;
             the rod carried by the creep), NaN where not computed.
         mobility: dU/dF at the converged viscosity field (m s-1 per N m-1), NaN where not computed.
@@ -130,6 +131,7 @@ class IntruderSpeed:
         fields: 2D fields on the cell centres (x, z) for plotting (u_x, u_z, fluidity,
             shear_rate, p, mu, solid), or None when no 2D solve was made.
         attrs: extra diagnostics (top-wall shear stress, vertical force and torque on the rod...).
+        state: a 2D solve's converged fields and pressure on the cells (a warm start), or None.
     """
 
     model: str
@@ -146,6 +148,7 @@ class IntruderSpeed:
     planar_solve_seconds: float = float("nan")
     fields: xr.Dataset | None = None
     attrs: dict[str, float | int | str] = field(default_factory=dict)
+    state: dict[str, np.ndarray] | None = field(default=None, repr=False)
 
     def summary(self) -> dict[str, float | int | str]:
         """Flat scalar record (for a CSV row or NetCDF attributes)."""
