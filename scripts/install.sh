@@ -43,3 +43,33 @@ if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$want" ]; then
   .venv/bin/python -m pip install -q -e ".[test]"
   echo "$want" > "$stamp"
 fi
+# MPICH for LAMMPS (dem.engine: lammps): the mpich wheel's files unpacked into .venv/mpich, outside
+# .venv/bin (Snakemake puts that first on PATH, and the wheel's mpirun there would start LIGGGHTS, an
+# Open MPI program). pipeline/dem/engines/lammps.py puts .venv/mpich/lib on LD_LIBRARY_PATH.
+mpich_version=5.0.2
+if [ ! -f .venv/mpich/lib/libmpi.so.12 ] || [ "$(cat .venv/mpich/VERSION 2>/dev/null)" != "$mpich_version" ]; then
+  wheels="$(mktemp -d)"
+  .venv/bin/python -m pip download -q --no-deps -d "$wheels" "mpich==$mpich_version"
+  rm -rf .venv/mpich.tmp
+  .venv/bin/python - "$wheels" .venv/mpich.tmp "$mpich_version" <<'PY'
+import glob, os, sys, zipfile
+wheels, dest, version = sys.argv[1:]
+prefix = f"mpich-{version}.data/data/"
+with zipfile.ZipFile(glob.glob(os.path.join(wheels, f"mpich-{version}-*.whl"))[0]) as wheel:
+    for info in wheel.infolist():
+        if info.is_dir() or not info.filename.startswith(prefix):
+            continue
+        out = os.path.join(dest, info.filename[len(prefix):])
+        os.makedirs(os.path.dirname(out), exist_ok=True)
+        mode = info.external_attr >> 16
+        if mode & 0o170000 == 0o120000:  # a symbolic link (libmpi.so -> libmpi.so.12)
+            os.symlink(wheel.read(info).decode(), out)
+            continue
+        with wheel.open(info) as src, open(out, "wb") as dst:
+            dst.write(src.read())
+        os.chmod(out, mode & 0o777 or 0o644)
+PY
+  echo "$mpich_version" > .venv/mpich.tmp/VERSION
+  rm -rf .venv/mpich "$wheels"
+  mv .venv/mpich.tmp .venv/mpich
+fi

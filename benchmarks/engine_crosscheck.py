@@ -1,0 +1,218 @@
+"""Cross-check of the two DEM engines: the same config run by LIGGGHTS and by LAMMPS, side by side.
+
+``python benchmarks/engine_crosscheck.py ROOT_A ROOT_B [--csv OUT]``: two output roots of the
+workflow whose configs differ only in ``dem.engine`` (and ``output_root``; any other difference is
+printed first). Compared, each with its error:
+
+- every rheometer state: the bulk ``mu``, ``nu`` and ``I`` (:func:`pipeline.calibration.calibrate.bulk_state`,
+  ``calibration.bulk_margin_over_d`` from the walls), the mean over the state's replicas with the
+  larger of their combined errors and their scatter over sqrt(n);
+- every planar case with gravity: ``log10(u / V)`` of the replica mean (:func:`pipeline.common.observables.replica_mean`)
+  at whole d below the top contact plane, where both roots resolve it above 2 errors; the decades
+  resolved (``validation/creep_resolution.csv``, no error); the creep law's ``beta``
+  (``validation/decay_length_fit.csv``, the DEM on all windows); the non-local lengths
+  (``calibration/params.json``).
+
+The test: for each quantity with errors on both sides ``z = (b - a) / sqrt(err_a^2 + err_b^2)``; per
+group and overall ``chi2 = sum z^2`` with as many degrees of freedom as terms, and its p-value
+(the engines agree at 5 % where p > 0.05). Profile points 1 d apart share the coarse-graining kernel
+and the packing's frozen structure, so they are not independent: the profile's chi2 is also given
+thinned to every third depth (3 d apart, about the kernel's support). A benchmark: it prints, it
+asserts nothing.
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import re
+import sys
+from collections import defaultdict
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from scipy import stats
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from pipeline.calibration.calibrate import bulk_state  # noqa: E402
+from pipeline.common.formats import open_fields  # noqa: E402
+from pipeline.common.observables import creep_speed, replica_mean  # noqa: E402
+
+REPLICA = re.compile(r"^(?P<state>.+)-r(?P<k>\d+)$")
+#: Depth step (in d) of the thinned profile test: about the coarse-graining kernel's support.
+THIN_EVERY = 3
+
+
+def config_of(root: Path) -> dict[str, Any]:
+    path = root / "config.effective.json"
+    if not path.is_file():
+        sys.exit(f"engine_crosscheck: {path}: missing (not an output root of the workflow?)")
+    return json.loads(path.read_text())
+
+
+def flat(d: Any, prefix: str = "") -> dict[str, Any]:
+    if isinstance(d, dict):
+        out: dict[str, Any] = {}
+        for k, v in d.items():
+            out |= flat(v, f"{prefix}.{k}" if prefix else str(k))
+        return out
+    return {prefix: d}
+
+
+def config_differences(a: dict[str, Any], b: dict[str, Any]) -> list[str]:
+    fa, fb = flat(a), flat(b)
+    return [f"{k}: {fa.get(k)!r} | {fb.get(k)!r}" for k in sorted(set(fa) | set(fb))
+            if fa.get(k) != fb.get(k) and k != "output_root"]
+
+
+def combine(values: list[float], errors: list[float]) -> tuple[float, float]:
+    """Mean of replicas and its error: the larger of the combined errors and the scatter / sqrt(n)."""
+    v, e = np.array(values), np.array(errors)
+    stated = float(np.sqrt(np.sum(e**2)) / len(v))
+    scatter = float(v.std(ddof=1) / math.sqrt(len(v))) if len(v) > 1 else 0.0
+    return float(v.mean()), max(stated, scatter)
+
+
+def rheometer_states(root: Path, margin: float) -> dict[str, dict[str, tuple[float, float]]]:
+    groups: dict[str, list[dict[str, float]]] = defaultdict(list)
+    for path in sorted((root / "fields" / "rheometer").glob("*.nc")):
+        m = REPLICA.match(path.stem)
+        if m:
+            groups[m["state"]].append(bulk_state(path, margin))
+    return {state: {q: combine([s[q] for s in reps], [s[f"{q}_err"] for s in reps]) for q in ("mu", "nu", "I")}
+            for state, reps in groups.items()}
+
+
+def creep_profile(root: Path, case: str) -> dict[int, tuple[float, float]]:
+    """log10(u / V) of the replica mean and its error at whole d below the top contact plane."""
+    files = sorted(p for p in (root / "fields" / case).glob("r*.nc") if REPLICA.match(p.stem) and p.stem.startswith("r"))
+    if not files:
+        return {}
+    sets = [open_fields(p) for p in files]
+    d = float(sets[0].attrs["d"])
+    v = float(sets[0].attrs["wall_speed"]) if "wall_speed" in sets[0].attrs else None
+    tops = [float(ds.attrs["z_top_contact_plane"]) for ds in sets]
+    bottoms = [float(ds.attrs.get("z_bottom_contact_plane", ds.attrs["z_bottom_wall"])) for ds in sets]
+    deepest = min(t - b for t, b in zip(tops, bottoms)) / d
+    depths = np.arange(1, int(deepest))
+    profiles = []
+    for ds, top in zip(sets, tops):
+        u, err, _ = creep_speed(ds)
+        profiles.append((top - ds.z.values, u, err))
+    if len(sets) > 1:
+        u, err = replica_mean(depths * d, profiles)
+    else:
+        own, value, error = profiles[0]
+        order = np.argsort(own)
+        u = np.interp(depths * d, own[order], value[order], left=np.nan, right=np.nan)
+        err = np.interp(depths * d, own[order], error[order], left=np.nan, right=np.nan)
+    if v is None:
+        v = float(np.nanmax(u))
+    for ds in sets:
+        ds.close()
+    out = {}
+    for k, ui, ei in zip(depths, u, err):
+        if np.isfinite(ui) and np.isfinite(ei) and ui > 2.0 * ei and ui > 0:
+            out[int(k)] = (math.log10(ui / v), ei / (ui * math.log(10.0)))
+    return out
+
+
+def csv_rows(path: Path) -> list[dict[str, str]]:
+    if not path.is_file():
+        return []
+    with path.open() as f:
+        return list(csv.DictReader(f))
+
+
+def decades(root: Path, case: str) -> float:
+    for row in csv_rows(root / "validation" / "creep_resolution.csv"):
+        if row["case"] == case and row["run"].startswith("mean of"):
+            return float(row["decades_best"])
+    return float("nan")
+
+
+def beta(root: Path) -> tuple[float, float]:
+    for row in csv_rows(root / "validation" / "decay_length_fit.csv"):
+        if row["source"] == "dem" and row["windows"] == "all":
+            return float(row["beta"]), float(row["beta_err"])
+    return float("nan"), float("nan")
+
+
+def nonlocal_lengths(root: Path) -> dict[str, tuple[float, float]]:
+    path = root / "calibration" / "params.json"
+    if not path.is_file():
+        return {}
+    params = json.loads(path.read_text()).get("nonlocal", {})
+    return {f"{model}.{name}": (float(e["value"]), float(e.get("error", float("nan"))))
+            for model, entries in params.items() for name, e in entries.items()}
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("root_a", type=Path)
+    parser.add_argument("root_b", type=Path)
+    parser.add_argument("--csv", type=Path, help="also write the table here")
+    args = parser.parse_args(argv)
+    ca, cb = config_of(args.root_a), config_of(args.root_b)
+    ea, eb = (c["dem"].get("engine", "liggghts") for c in (ca, cb))
+    print(f"A = {args.root_a} ({ea}), B = {args.root_b} ({eb})")
+    diffs = [x for x in config_differences(ca, cb) if not x.startswith("dem.engine")]
+    print("configs differ only in dem.engine" if not diffs else "configs ALSO differ in:\n  " + "\n  ".join(diffs))
+    margin = float(ca.get("calibration", {}).get("bulk_margin_over_d", 3.0))
+    rows: list[dict[str, Any]] = []
+
+    def add(group: str, item: str, a: tuple[float, float], b: tuple[float, float]) -> None:
+        err = math.hypot(a[1], b[1]) if all(math.isfinite(x) for x in (a[1], b[1])) else float("nan")
+        z = (b[0] - a[0]) / err if err and math.isfinite(err) and err > 0 else float("nan")
+        rows.append({"group": group, "item": item, "a": a[0], "a_err": a[1], "b": b[0], "b_err": b[1],
+                     "b_minus_a": b[0] - a[0], "z": z})
+
+    sa, sb = rheometer_states(args.root_a, margin), rheometer_states(args.root_b, margin)
+    for state in sorted(set(sa) & set(sb)):
+        for q in ("mu", "nu", "I"):
+            add("rheometer", f"{state} {q}", sa[state][q], sb[state][q])
+    planar = [c for c, spec in ca["cases"].items() if spec.get("geometry") == "planar_shear" and spec.get("gravity", 0) > 0
+              and c in cb["cases"]]
+    for case in planar:
+        pa, pb = creep_profile(args.root_a, case), creep_profile(args.root_b, case)
+        for k in sorted(set(pa) & set(pb)):
+            add(f"creep {case}", f"log10 u/V at {k} d", pa[k], pb[k])
+        add(f"decades {case}", "decades resolved", (decades(args.root_a, case), float("nan")),
+            (decades(args.root_b, case), float("nan")))
+    add("beta", "beta (dem, all windows)", beta(args.root_a), beta(args.root_b))
+    la, lb = nonlocal_lengths(args.root_a), nonlocal_lengths(args.root_b)
+    for name in sorted(set(la) & set(lb)):
+        add("nonlocal", name, la[name], lb[name])
+
+    print(f"\n{'group':<24} {'item':<28} {'A':>11} {'+-':>9} {'B':>11} {'+-':>9} {'B-A':>11} {'z':>7}")
+    for r in rows:
+        print(f"{r['group']:<24} {r['item']:<28} {r['a']:>11.4g} {r['a_err']:>9.2g} {r['b']:>11.4g} {r['b_err']:>9.2g} "
+              f"{r['b_minus_a']:>11.3g} {r['z']:>7.2f}")
+    print("\nTest: chi2 = sum z^2 over the group's terms (dof = terms); p = P(chi2_dof > chi2)")
+    groups: dict[str, list[float]] = defaultdict(list)
+    for r in rows:
+        if math.isfinite(r["z"]):
+            groups[r["group"]].append(r["z"])
+            groups["all"].append(r["z"])
+    thinned = [r["z"] for r in rows if r["group"].startswith("creep") and math.isfinite(r["z"])
+               and int(r["item"].split()[-2]) % THIN_EVERY == 0]
+    if thinned:
+        groups[f"creep, every {THIN_EVERY} d"] = thinned
+    for name, zs in groups.items():
+        chi2 = float(np.sum(np.square(zs)))
+        p = float(stats.chi2.sf(chi2, len(zs)))
+        print(f"  {name:<36} chi2 {chi2:8.2f} / {len(zs):3d} dof, p = {p:.3g}: "
+              f"{'agree at 5 %' if p > 0.05 else 'DIFFER at 5 %'}")
+    if args.csv:
+        with args.csv.open("w", newline="") as f:
+            w = csv.DictWriter(f, fieldnames=list(rows[0]))
+            w.writeheader()
+            w.writerows(rows)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,86 @@
+"""Particle-steps per core-second of each DEM engine on the same bed, side by side.
+
+``python benchmarks/engine_speed.py RUN_DIR [RUN_DIR ...] [--stage production_000] [--repeats 3]``:
+each RUN_DIR a finished planar run (``python -m pipeline.dem``), of either engine (its ``run.json``
+names it). The chunk ``--stage`` is run again, as run (its ``in.<stage>`` from the restart it
+started from, one rank), in a scratch copy of the folder, ``--repeats`` times; the engine's CPU
+time (user + system of the child processes, so a loaded machine's waiting is not counted; LAMMPS's
+includes the start of its Python wrapper) gives particle-steps per core-second, beside the wall-clock
+rate. Two runs of one config that differ only in ``dem.engine`` are the same bed: the same grains,
+walls, cell and time step (their packings differ, being poured by each engine). A benchmark: it
+prints, it asserts nothing.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import resource
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from pipeline.dem.engines import make_engine  # noqa: E402
+from pipeline.dem.engines.lammps import lammps_environment  # noqa: E402
+from pipeline.dem.engines.liggghts import _mpi_environment  # noqa: E402
+
+LOOP = re.compile(r"Loop time of (\S+) on (\d+) procs for (\d+) steps with (\d+) atoms")
+
+
+def measure(run_dir: Path, stage: str) -> dict[str, float]:
+    record = json.loads((run_dir / "run.json").read_text())
+    engine = make_engine(record["provenance"]["config"]["dem"] | {"mpi_ranks": 1, "mpi_launcher": "none"})
+    with tempfile.TemporaryDirectory(prefix="engine_speed_") as tmp:
+        work = Path(tmp) / "run"
+        shutil.copytree(run_dir, work, ignore=shutil.ignore_patterns("dumps", "logs"))
+        (work / "logs").mkdir()
+        (work / "dumps").mkdir()
+        text = (work / f"in.{stage}").read_text()
+        # No dumps (their writing is the store's cost, not the engine's).
+        text = re.sub(r'variable dump_every string "\d+"', 'variable dump_every string "0"', text)
+        (work / f"in.{stage}").write_text(text)
+        cmd = engine.command(f"in.{stage}", "logs/bench.log") if hasattr(engine, "command") else \
+            engine.launcher.command(f"in.{stage}", "logs/bench.log")
+        env = lammps_environment() if engine.name == "lammps" else _mpi_environment()
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
+        start = time.perf_counter()
+        subprocess.run(cmd, cwd=work, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT, check=True)
+        wall = time.perf_counter() - start
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+        loops = LOOP.findall((work / "logs" / "bench.log").read_text())
+    loop_seconds, _, steps, atoms = loops[-1]
+    work_done = int(steps) * int(atoms)
+    return {"engine": engine.name, "particle_steps": work_done, "cpu_s": cpu, "wall_s": wall,
+            "per_core_second": work_done / cpu, "per_wall_second": work_done / wall,
+            "per_loop_second": work_done / float(loop_seconds)}
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("runs", nargs="+", type=Path)
+    parser.add_argument("--stage", default="production_000")
+    parser.add_argument("--repeats", type=int, default=3)
+    args = parser.parse_args(argv)
+    print(f"{'run':<40} {'engine':<9} {'M p-steps':>9} {'M p-steps / core-s':>22} {'M p-steps / wall-s':>20} "
+          f"{'(loop)':>8}")
+    for run in args.runs:
+        rows = [measure(run, args.stage) for _ in range(args.repeats)]
+        core = [r["per_core_second"] / 1e6 for r in rows]
+        wall = [r["per_wall_second"] / 1e6 for r in rows]
+        loop = [r["per_loop_second"] / 1e6 for r in rows]
+        spread = statistics.stdev(core) if len(core) > 1 else float("nan")
+        print(f"{str(run):<40} {rows[0]['engine']:<9} {rows[0]['particle_steps'] / 1e6:>9.3f} "
+              f"{statistics.mean(core):>12.2f} +- {spread:<6.2f} {statistics.mean(wall):>20.2f} {statistics.mean(loop):>8.2f}"
+              f"   (each of {len(rows)}: {', '.join(f'{c:.2f}' for c in core)})")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
