@@ -17,7 +17,15 @@ comparison outlives the output root it was measured on. ``benchmarks/records/`` 
 of the measured designs; a bill transcribed from an earlier report says so in its ``source`` and
 may hold per-case totals (``run`` = ``all``) and noise without its standard error.
 
-Usage: ``python benchmarks/workflow_cost.py --fixed /work/results-default --targeted results``
+With ``--timeline ROOT`` it reports instead how the workflow used its slots (issue 45): every job's
+wall seconds from its Snakemake ``benchmark:`` file (``ROOT/benchmarks/<rule>[/<case>]/<job>.tsv``)
+and its end from that file's modification time (written when the job ends), so its start is the
+end less its seconds; from them the wall time (first start to last end), the slot-seconds by rule
+and case, the **busy fraction** (slot-seconds over slots x wall time) and how long 0, 1, 2, ... jobs
+ran at once, with the idle stretch at the end (the last time fewer jobs than slots ran, to the end).
+
+Usage: ``python benchmarks/workflow_cost.py --fixed /work/results-default --targeted results``,
+``python benchmarks/workflow_cost.py --timeline results [--slots 2]``
 """
 from __future__ import annotations
 
@@ -79,17 +87,20 @@ def run_costs(root: Path) -> pd.DataFrame:
                      # Production chunks that were the steady-state test's window (none before 2026-12-02).
                      "window_chunks": sum(1 for c in chunks if c.get("from_steady_window")),
                      "stop": (record.get("production_stop") or {}).get("reason", "fixed length")})
-    # Fills shared by a rheometer replica's states (their runs record a fill of 0 steps): counted once.
+    # Fills shared by several runs (their runs record a fill of 0 steps), and the intruder's sheared
+    # beds (cases.<case>.shared_bed: a fill and its shear to steady state): counted once.
     for record_path in sorted((root / "dem").glob("*/fill-*/fill.json")):
         record = json.loads(record_path.read_text())
         n, ranks = record["particle_count"], record.get("mpi_ranks", 1)
-        steps, seconds = record["steps_by_stage"]["fill"], record["wall_seconds_by_stage"]["fill"]
-        rows.append({"case": record["case"], "run": record["run"], "particle_steps": n * steps,
-                     "particle_steps_fill": n * steps, "particle_steps_shear": 0, "particle_steps_production": 0,
-                     "core_seconds": ranks * seconds, "core_seconds_fill": ranks * seconds,
-                     "core_seconds_shear": 0.0, "core_seconds_production": 0.0,
-                     "shear_strain": float("nan"), "production_strain": float("nan"), "window_chunks": 0,
-                     "stop": "shared fill"})
+        steps, seconds = record["steps_by_stage"], record["wall_seconds_by_stage"]
+        bed = record.get("bed")
+        rows.append({"case": record["case"], "run": record["run"], "particle_steps": n * sum(steps.values()),
+                     "particle_steps_fill": n * steps["fill"], "particle_steps_shear": n * steps.get("shear", 0),
+                     "particle_steps_production": 0,
+                     "core_seconds": ranks * sum(seconds.values()), "core_seconds_fill": ranks * seconds["fill"],
+                     "core_seconds_shear": ranks * seconds.get("shear", 0.0), "core_seconds_production": 0.0,
+                     "shear_strain": bed["strain"] if bed else float("nan"), "production_strain": float("nan"),
+                     "window_chunks": 0, "stop": "sheared bed" if bed else "shared fill"})
     if not rows:
         raise SystemExit(f"{root}: no finished DEM runs (dem/*/*/run.json)")
     return pd.DataFrame(rows)
@@ -152,6 +163,65 @@ def noise(root: Path) -> pd.DataFrame:
     return pd.concat([out, pd.DataFrame(extra)], ignore_index=True)
 
 
+def job_timeline(root: Path) -> pd.DataFrame:
+    """One row per finished job of ``root``: rule, case (the folder under the rule's, if any), job,
+    seconds (the benchmark's ``s``), end (the benchmark file's modification time, s) and start."""
+    rows = []
+    for path in sorted((root / "benchmarks").rglob("*.tsv")):
+        parts = path.relative_to(root / "benchmarks").parts
+        try:
+            seconds = float(pd.read_csv(path, sep="\t")["s"].iloc[0])
+        except (ValueError, KeyError, IndexError, pd.errors.EmptyDataError) as err:
+            raise SystemExit(f"{path}: not a Snakemake benchmark file ({err})") from None
+        rule = parts[0].removesuffix(".tsv")
+        case = parts[1] if len(parts) > 2 else ""
+        end = path.stat().st_mtime
+        rows.append({"rule": rule, "case": case, "job": path.stem, "seconds": seconds, "end": end, "start": end - seconds})
+    if not rows:
+        raise SystemExit(f"{root}: no benchmark files under benchmarks/")
+    return pd.DataFrame(rows)
+
+
+def concurrency(jobs: pd.DataFrame) -> pd.Series:
+    """Seconds during which k jobs ran at once, for every k seen (index k)."""
+    events = sorted([(t, 1) for t in jobs["start"]] + [(t, -1) for t in jobs["end"]])
+    held: dict[int, float] = {}
+    running, last = 0, events[0][0]
+    for t, step in events:
+        held[running] = held.get(running, 0.0) + (t - last)
+        running, last = running + step, t
+    return pd.Series(held).sort_index()
+
+
+def print_timeline(root: Path, slots: int) -> None:
+    """The slots' use of one finished workflow run (module docstring)."""
+    jobs = job_timeline(root)
+    wall = float(jobs["end"].max() - jobs["start"].min())
+    busy = float(jobs["seconds"].sum())
+    print(f"{root}: {len(jobs)} jobs, wall time {wall:.0f} s ({wall / 60:.1f} min), {busy:.0f} slot-seconds; "
+          f"busy fraction {busy / (slots * wall):.3f} of {slots} slots")
+    dem = jobs["rule"] == "dem"
+    by_case = jobs[dem].groupby("case")["seconds"].agg(["count", "sum"]).rename(columns={"count": "jobs", "sum": "slot_s"})
+    print("DEM slot-seconds by case:\n" + by_case.to_string(float_format=lambda v: f"{v:.0f}"))
+    print(f"after the DEM (every other rule): {jobs.loc[~dem, 'seconds'].sum():.0f} slot-seconds in {int((~dem).sum())} jobs; by rule: "
+          + ", ".join(f"{r} {v:.0f}" for r, v in jobs[~dem].groupby("rule")["seconds"].sum().sort_values(ascending=False).items()))
+    held = concurrency(jobs)
+    print("seconds with k jobs running: " + ", ".join(f"{k}: {v:.0f}" for k, v in held.items()))
+    # The idle tail: from the last moment the slots were all busy to the end.
+    events = sorted([(t, 1) for t in jobs["start"]] + [(t, -1) for t in jobs["end"]])
+    running, full_until = 0, float(jobs["start"].min())
+    for t, step in events:
+        if running >= slots and running + step < slots:
+            full_until = t
+        running += step
+    end = float(jobs["end"].max())
+    tail = jobs[jobs["end"] > full_until].sort_values("start")
+    print(f"last {end - full_until:.0f} s with fewer than {slots} jobs running; the jobs then: "
+          + "; ".join(f"{r.rule} {r.case}/{r.job} {r.seconds:.0f} s" for r in tail.itertuples()))
+    last_dem = float(jobs.loc[dem, "end"].max()) if dem.any() else float("nan")
+    print(f"from the last DEM job's end to the last job's: {end - last_dem:.0f} s")
+
+
 def load_bill(path: Path) -> dict[str, object]:
     """A design's bill: from an output root (its run records and fields) or a saved ``.json`` bill.
     Returns ``runs`` (one row per run, :func:`run_costs`), ``noise`` (:func:`noise`) and
@@ -183,10 +253,17 @@ def save_bill(root: Path, bill: dict[str, object], path: Path) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--fixed", type=Path, required=True, help="output root (or saved bill, .json) of the fixed-length design")
-    parser.add_argument("--targeted", type=Path, required=True, help="output root (or saved bill, .json) of the precision-targeted design")
+    parser.add_argument("--fixed", type=Path, help="output root (or saved bill, .json) of the fixed-length design")
+    parser.add_argument("--targeted", type=Path, help="output root (or saved bill, .json) of the precision-targeted design")
     parser.add_argument("--save-bill", type=Path, metavar="FILE.json", help="also write the targeted root's bill (per-run costs, noise) here")
+    parser.add_argument("--timeline", type=Path, metavar="ROOT", help="instead: the slots' use of one finished run (busy fraction)")
+    parser.add_argument("--slots", type=int, default=2, help="with --timeline: jobs the run kept at once (--cores; default 2)")
     args = parser.parse_args(argv)
+    if args.timeline is not None:
+        print_timeline(args.timeline, args.slots)
+        return 0
+    if args.fixed is None or args.targeted is None:
+        parser.error("give --fixed and --targeted (or --timeline ROOT)")
     bills = {name: load_bill(path) for name, path in (("fixed", args.fixed), ("targeted", args.targeted))}
     if args.save_bill is not None:
         if args.targeted.suffix == ".json":

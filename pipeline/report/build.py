@@ -138,6 +138,12 @@ def dem_convergence_section(root: Path, config: dict[str, Any], figures: Figures
                else f"a {best.cell_over_d:g} d cell")
         sentences.append(f"{case}, {metric}: the cheapest noise per sqrt(core-second) comes from {how} "
                          f"(noise {best.noise:.3g} for {best.core_seconds:.0f} core-s).")
+    # A case without a size_study has its own cell alone in the system-size sweep: say so, not a flat line.
+    cells = table[table.study == "system_size"].groupby("case")["cell_over_d"].nunique()
+    unstudied = sorted(case for case, n in cells.items() if n < 2)
+    if unstudied:
+        sentences.append(f"System-size study: not run in this config for {', '.join(unstudied)} (only the case's own cell; "
+                         "config/studies/size.yaml runs shear_gravity's, docs/dem_cost.md section 3).")
     shown = table[table.metric.isin(metrics_drawn)][["case", "study", "cell_over_d", "n_grains", "n_replicas",
                                                       "averaging_strain", "core_seconds", "metric", "noise"]]
     return ("<h2>DEM noise against cost</h2><p class='note'>Noise: the score metric between independent replicas "

@@ -15,7 +15,7 @@ from pipeline.common.formats import open_fields
 
 
 def test_size_study_runs_keep_grains_per_area() -> None:
-    case = load_config("config/config.yaml")["cases"]["shear_gravity"]
+    case = load_config("config/studies/size.yaml")["cases"]["shear_gravity"]
     runs = size_study_runs(case)
     assert len(runs) == len(case["size_study"]["cells"]) * case["size_study"]["replicas"]
     base_density = case["n_grains"] / (case["cell_x"] * case["cell_y"])
@@ -29,13 +29,13 @@ def test_size_study_runs_keep_grains_per_area() -> None:
 
 
 def test_size_study_has_its_own_production_cap() -> None:
-    case = load_config("config/config.yaml")["cases"]["shear_gravity"]
+    case = load_config("config/studies/size.yaml")["cases"]["shear_gravity"]
     study = case["size_study"] | {"production_strain": 1.5}
     case = case | {"size_study": study, "production_strain": 8.0}
     assert run_case(case, size_study_runs(case)[0])["production_strain"] == 1.5
     assert run_case(case, "r1")["production_strain"] == 8.0
     # Through the run's own DEM config (the study left out of it), as the DEM stage reads it.
-    config = load_config("config/config.yaml")
+    config = load_config("config/studies/size.yaml")
     config["cases"]["shear_gravity"] = case
     run = size_study_runs(case)[0]
     assert run_config(config, "shear_gravity", run)["cases"]["shear_gravity"]["production_strain"] == 1.5
