@@ -1,0 +1,244 @@
+"""The yield-stress models around the rod (local mu(I), critical state, volume-averaged), solved
+by Newton's method on the framework's grid, with a viscoplastic regularisation taken to zero.
+
+``YieldRodSolver`` is a ``framework.RodSolver``: it takes the framework's grid, rod, pressure
+convention (pi with P_wall on the top wall, p = pi / normal_stress_ratio), planar far field and
+output Dataset, and replaces the fixed-point iteration by Newton on the discrete equations of
+``plastic2d`` (why: see that module). The regularisation eps (a rate, in units of V / d) is
+lowered along ``regularisations``; each stage starts from the previous one's solution (a
+continuation: the first stage is smooth, the last is the answer), and the rod speed of every
+stage is kept, so the limit eps -> 0 is shown on the sequence (``speed_by_regularisation``).
+
+Convergence, on every unknown: a stage ends when the largest scaled residual of every equation
+(momentum over P_wall / d, continuity over V / d, the rod's force balance over P_wall d) is below
+``RESIDUAL_TOL`` and the last Newton step moved every velocity and U by less than ``STEP_TOL`` V
+and every pressure by less than ``STEP_TOL`` P_wall.
+"""
+from __future__ import annotations
+
+import time
+from abc import abstractmethod
+from typing import Any
+
+import numpy as np
+import xarray as xr
+from scipy.sparse.linalg import LinearOperator, gmres, splu
+
+from .. import solve as solve_planar
+from ..errors import ConvergenceError, OutOfRangeError
+from ..geometry import PlanarShear
+from .framework import P_FLOOR, Flow, RodSolution, RodSolver
+from .plastic2d import Discretisation, PlasticLaw, Scales, averaging_operators, corner_xz, equations, fill_map, inside_rod
+from .scene import GridOptions, RodIntruder
+
+#: Largest scaled residual of a converged stage (equations scaled as in ``plastic2d.equations``;
+#: momentum in P_wall / d as NGF's RESIDUAL_TOL, continuity in V / d). Round-off puts a floor
+#: near 1e-8 on it where eta spans ten decades (regularisation 1e-5 V / d, 8 cells per d).
+RESIDUAL_TOL = 1e-6
+#: Largest Newton step of a converged stage, over V (velocities, U) and P_wall (pressure).
+STEP_TOL = 1e-7
+#: The regularisations eps d / V of the continuation; the last one is the reported solution.
+REGULARISATIONS = (1e-1, 1e-2, 1e-3, 1e-4)
+#: Newton iterations allowed per stage.
+MAX_NEWTON = 60
+#: GMRES iterations (one restart cycle) before the Jacobian is factorised anew.
+_GMRES_ITERATIONS = 30
+
+
+class YieldRodSolver(RodSolver):
+    """Steady yield-stress flow around the rod (``plastic2d.PlasticLaw`` of the model).
+
+    Args (besides ``RodSolver``'s):
+        regularisations: the eps d / V sequence (decreasing); the last is the solution's.
+        rod_speed: if given, the rod is driven at this speed (m s-1) and the force it needs is
+            computed (``attrs["rod_force"]``) instead of U from a given force.
+    """
+
+    def __init__(self, geometry: PlanarShear, params: Any, cell_length_x: float, rod: RodIntruder | None,
+                 options: GridOptions = GridOptions(), case: str | None = None,
+                 regularisations: tuple[float, ...] = REGULARISATIONS, rod_speed: float | None = None) -> None:
+        super().__init__(geometry, params, cell_length_x, rod, options, case)
+        if not regularisations or any(e <= 0.0 for e in regularisations):
+            raise ValueError(f"regularisations must be positive, got {regularisations!r}")
+        self.regularisations = tuple(regularisations)
+        self.driven_speed = rod_speed
+        self._planar: xr.Dataset | None = None
+        self._lu = None
+        self.factorisations = 0
+
+    # ---- the model's law ------------------------------------------------------------------
+    @property
+    @abstractmethod
+    def law(self) -> PlasticLaw:
+        """The model's yield-stress law."""
+
+    def planar_solution(self) -> xr.Dataset:
+        if self._planar is None:
+            self._planar = solve_planar(self.model, self.geometry, self.params, n_grid=8 * self.grid.nz + 1,
+                                        case=self.case)
+        return self._planar
+
+    def bulk_density(self, fields: dict[str, np.ndarray]) -> np.ndarray:
+        """rho_s nu with nu of the planar solution at the cell's height (the rod's change of the
+        packing is left out: for mu(I) it is a I ~ 1e-4 at the rod's creeping I)."""
+        planar = self.planar_solution()
+        return self.geometry.rho_s * np.interp(self.z_cells, planar.z.values, planar.nu.values)
+
+    # The fixed-point hooks of the framework, kept so the secant iteration can be compared
+    # (``RodSolver.solve`` of the base class); ``solve`` below does not use them.
+    def initial_fields(self, planar: xr.Dataset) -> dict[str, np.ndarray]:
+        rate = np.interp(self.z_cells, planar.z.values, np.gradient(planar.u_x.values, planar.z.values))
+        return {"ln_rate": np.log(np.maximum(np.abs(rate), 1e-12 * self.geometry.wall_speed / self.geometry.d))}
+
+    @property
+    def field_tolerances(self) -> dict[str, float]:
+        return {"ln_rate": self.options.tolerance}
+
+    def viscosity(self, fields: dict[str, np.ndarray], p: np.ndarray) -> np.ndarray:
+        eps = self.regularisations[-1] * self.geometry.wall_speed / self.geometry.d
+        return self.law.viscosity(np.exp(fields["ln_rate"]), p, eps, self.geometry.d, self.geometry.rho_s)[0]
+
+    def update(self, flow: Flow, fields: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        floor = 1e-12 * self.geometry.wall_speed / self.geometry.d
+        return {"ln_rate": np.log(np.maximum(flow.shear_rate, floor))}
+
+    # ---- Newton -------------------------------------------------------------------------------
+    def _discretisation(self) -> Discretisation:
+        grid, rod = self.grid, self.rod
+        centre = None if rod is None else (0.5 * self.cell_length_x, rod.depth_from_bottom)
+        radius = 0.0 if rod is None else rod.radius
+        xk, zk = corner_xz(grid)
+        solid_k = inside_rod(xk, zk, grid, centre, radius)
+        m_c, m_k = averaging_operators(grid, self.mask.solid_cells, solid_k, self.law.length)
+        rho = self.bulk_density({}).reshape(grid.nz, grid.nx)
+        body = self.geometry.gravity * 0.5 * (rho[1:] + rho[:-1]).ravel()
+        return Discretisation(grid, self.ops, self.mask, m_c, m_k, fill_map(grid, self.mask.solid_cells), body,
+                              rod is not None)
+
+    def _initial(self, planar: xr.Dataset, disc: Discretisation) -> np.ndarray:
+        grid, geo = self.grid, self.geometry
+        nc, nw = grid.n_cells, grid.n_w
+        y = np.zeros(disc.n)
+        zu = np.repeat(grid.z_centres, grid.nx)
+        u = np.interp(zu, planar.z.values, planar.u_x.values)
+        pi = geo.normal_stress_ratio * np.interp(self.z_cells, planar.z.values, planar.p.values)
+        y[:nc], y[nc + nw:2 * nc + nw] = u, pi
+        if self.rod is not None:
+            U = float(np.interp(self.rod.depth_from_bottom, planar.z.values, planar.u_x.values))
+            y[:nc][self.mask.u_faces] = U
+            y[nc + nw:2 * nc + nw][self.mask.pinned_cells] = 0.0
+            y[-1] = U
+        return y
+
+    def _evaluate(self, y: np.ndarray, disc: Discretisation, eps_rel: float, jacobian: bool) -> dict:
+        geo = self.geometry
+        force = None if self.rod is None else self.rod.force_per_length
+        return equations(y, disc, self.law, eps_rel * geo.wall_speed / geo.d, geo.wall_speed, force,
+                         self.driven_speed, geo.normal_stress_ratio, P_FLOOR * self.top_pressure, geo.rho_s,
+                         Scales(geo.wall_speed, geo.wall_pressure, geo.d), jacobian=jacobian)
+
+    def _step_scale(self, disc: Discretisation) -> np.ndarray:
+        g, geo = self.grid, self.geometry
+        s = np.concatenate([np.full(g.n_cells + g.n_w, geo.wall_speed), np.full(g.n_cells, geo.wall_pressure)])
+        return np.append(s, geo.wall_speed) if disc.has_rod else s
+
+    def _linear_solve(self, jac, rhs: np.ndarray, res: float, eps_rel: float) -> np.ndarray:
+        """Newton step: GMRES preconditioned by the last LU factorisation of the Jacobian (an
+        inexact Newton step, forcing term min(1e-2, |r|)); a new factorisation when GMRES does not
+        converge in ``_GMRES_ITERATIONS`` (the LU costs ~10-50 GMRES iterations)."""
+        if self._lu is not None:
+            op = LinearOperator(jac.shape, matvec=self._lu.solve)
+            dy, info = gmres(jac, rhs, M=op, rtol=min(1e-2, max(res, 1e-12)), atol=0.0,
+                             restart=_GMRES_ITERATIONS, maxiter=1)
+            if info == 0:
+                return dy
+        try:
+            self._lu = splu(jac)
+        except RuntimeError as exc:  # singular factor
+            raise ConvergenceError(self.model, res, f"Newton: singular Jacobian at eps = {eps_rel:g} V/d ({exc})",
+                                   self.case) from exc
+        self.factorisations += 1
+        return self._lu.solve(rhs)
+
+    def _newton(self, y: np.ndarray, disc: Discretisation, eps_rel: float) -> tuple[np.ndarray, int, float, float]:
+        """One stage: Newton with a backtracking line search on the residual's 2-norm."""
+        scale = self._step_scale(disc)
+        step = np.inf
+        ev = self._evaluate(y, disc, eps_rel, True)
+        for it in range(1, MAX_NEWTON + 1):
+            r = ev["residual"]
+            res = float(np.max(np.abs(r)))
+            if res < RESIDUAL_TOL and step < STEP_TOL:
+                return y, it - 1, res, step
+            dy = self._linear_solve(ev["jacobian"], -r, res, eps_rel)
+            norm0 = float(np.linalg.norm(r))
+            lam = 1.0
+            while True:
+                trial = y + lam * dy
+                ev_t = self._evaluate(trial, disc, eps_rel, False)
+                if np.linalg.norm(ev_t["residual"]) <= (1.0 - 1e-4 * lam) * norm0 or lam < 1.0 / 512:
+                    break
+                lam *= 0.5
+            y = trial
+            step = float(np.max(np.abs(lam * dy) / scale))
+            ev = self._evaluate(y, disc, eps_rel, True)
+        res = float(np.max(np.abs(ev["residual"])))
+        if res < RESIDUAL_TOL and step < STEP_TOL:
+            return y, MAX_NEWTON, res, step
+        raise ConvergenceError(self.model, res, f"Newton not converged in {MAX_NEWTON} iterations at eps = "
+                               f"{eps_rel:g} V/d (last step {step:.2g})", self.case)
+
+    def solve(self, warm: dict[str, np.ndarray] | None = None) -> RodSolution:
+        """Converged solution at the last regularisation, with the rod speed at every stage.
+        ``warm`` is a previous solution's ``state`` on the same grid (the continuation then starts
+        at the last regularisation)."""
+        t0 = time.perf_counter()
+        t1 = time.perf_counter()
+        planar = self.planar_solution()
+        planar_seconds = time.perf_counter() - t1
+        disc = self._discretisation()
+        stages = self.regularisations
+        if warm is not None and "y" in warm and warm["y"].size == disc.n:
+            y, stages = np.array(warm["y"], dtype=float), stages[-1:]
+        else:
+            y = self._initial(planar, disc)
+        by_eps: dict[float, float] = {}
+        iterations, res, step = 0, np.nan, np.nan
+        for eps_rel in stages:
+            y, its, res, step = self._newton(y, disc, eps_rel)
+            iterations += its
+            by_eps[eps_rel] = float(y[-1]) if disc.has_rod else float("nan")
+        ev = self._evaluate(y, disc, stages[-1], False)
+        flow = self._flow(y, ev, disc)
+        p_min = float(flow.p[self.material].min())
+        if p_min < P_FLOOR * self.top_pressure:
+            raise OutOfRangeError(self.model, f"pressure {p_min:.3g} Pa next to the rod: the bed opens in tension",
+                                  self.case)
+        residuals = {"residual": res, "residual_over_tol": res / RESIDUAL_TOL, "step": step,
+                     "step_over_tol": step / STEP_TOL}
+        attrs = {"tau_top": flow.tau_top, "p_min": p_min, "mu_max": float(flow.mu[self.material].max()),
+                 "nx": self.grid.nx, "nz": self.grid.nz, "regularisation": stages[-1],
+                 "rod_force": float(-ev["rod_force"]) if disc.has_rod else float("nan"),
+                 "speed_by_regularisation": by_eps}
+        state = {"y": y.copy()}
+        return RodSolution(self.model, flow.rod_speed, True, iterations, residuals, time.perf_counter() - t0,
+                           self.grid.n_cells, flow, state, self._dataset(flow, {}), planar, planar_seconds, attrs)
+
+    def _flow(self, y: np.ndarray, ev: dict, disc: Discretisation) -> Flow:
+        """The framework's ``Flow`` of a Newton state (for its Dataset and diagnostics)."""
+        g, ops = self.grid, self.ops
+        nc, nw, nx, nz = g.n_cells, g.n_w, g.nx, g.nz
+        u, w, pi = y[:nc], y[nc:nc + nw], y[nc + nw:2 * nc + nw]
+        V = self.geometry.wall_speed
+        gam_k = ops.dzu @ u + ops.lift_top * V + ops.dxw @ w
+        d_xx = ops.dxu @ u
+        d_xz = ops.centre_from_corners @ (0.5 * gam_k)
+        s_xx = ev["t_xx"]
+        s_xz = ops.centre_from_corners @ ev["t_xz_k"]
+        tau = np.hypot(s_xx, s_xz)
+        return Flow(u=u, w=w, pi=pi, p=ev["p"], p_eff=ev["p_eff"], d_xx=d_xx, d_xz=d_xz,
+                    shear_rate=2.0 * np.hypot(d_xx, d_xz), s_xx=s_xx, s_xz=s_xz, tau=tau, mu=tau / ev["p_eff"],
+                    eta=ev["eta_c"], d_xz_corners=0.5 * gam_k, s_xz_corners=ev["t_xz_k"], top_speed=V,
+                    rod_speed=float(y[-1]) if disc.has_rod else float("nan"),
+                    tau_top=float(ev["t_xz_k"][nz * nx:].mean()), rod_force_parts=None, x=y, system=None,
+                    rhs_load=None)
