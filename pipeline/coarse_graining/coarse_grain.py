@@ -22,16 +22,11 @@ Errors: the snapshots in the window are split into ``blocks`` contiguous blocks 
 every field is computed from each block's averages and its standard error is the standard
 deviation of the block values over sqrt(blocks).
 
-CLI::
-
-    python -m pipeline.coarse_graining.coarse_grain PARTICLE_DUMP [--contacts CONTACT_DUMP] --out FILE.nc
-        [--width W] [--kernel gaussian|lucy] [--bins N | --dx DX] [--axis z | --plane xz] [--t-start T]
+Command line: :mod:`pipeline.coarse_graining.dumps_cli` (``python -m pipeline.coarse_graining``).
 """
 from __future__ import annotations
 
-import argparse
 import math
-import sys
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -42,12 +37,11 @@ import numpy as np
 import scipy.sparse as sp
 import xarray as xr
 
-from pipeline.dumps.reader import Dump, DumpError, check_particle_rows, read_contacts, read_particles
+from pipeline.dumps.reader import Dump, check_particle_rows
 from pipeline.common import atomic
 from pipeline.common.statistics import integrated_autocorrelation_time
-from pipeline.common.cli import nonnegative_float, positive_float, positive_int
-from pipeline.coarse_graining.kernels import KERNELS, Kernel, segment_2d
-from pipeline.coarse_graining.vtk import write_fields_vtk
+from pipeline.coarse_graining.kernels import Kernel, segment_2d
+from pipeline.coarse_graining.pairing import contact_index
 
 #: Raw per-snapshot sums (per unit area or length) that all fields derive from.
 SUMS = ("mass", "mass_body", "volume", "mom_x", "mom_y", "mom_z", "mvv_xx", "mvv_yy", "mvv_zz", "mvv_xz",
@@ -153,78 +147,6 @@ def snapshot(particles: Dump, contacts: Dump | None, s: int, body_types: Sequenc
     data = batch(particles, contacts, np.array([s]), body_types)
     data.psid = data.csid = data.areas = data.lengths = None
     return data
-
-
-def contact_index(particles: Dump, contacts: Dump, chosen: np.ndarray) -> np.ndarray:
-    """Indices of the contact snapshots at the timesteps of the chosen particle snapshots."""
-    where = {int(t): k for k, t in enumerate(contacts.timesteps)}
-    missing = [int(t) for t in particles.timesteps[chosen] if int(t) not in where]
-    if missing:
-        raise CoarseGrainError(f"no contact snapshot at step(s) {missing[:5]} ({', '.join(contacts.sources)})")
-    return np.array([where[int(t)] for t in particles.timesteps[chosen]], dtype=np.int64)
-
-
-def check_contacts_match(particles: Dump, contacts: Dump, chosen: np.ndarray) -> None:
-    """Refuse a contact dump that is not of the particle dump's run: a contact snapshot for every
-    chosen particle snapshot, and both grains of every contact present in it (else the stress
-    would silently miss or misplace contacts). Raises :class:`CoarseGrainError` naming the files."""
-    where = contact_index(particles, contacts, chosen)
-    if "id1" not in contacts.columns or "id" not in particles.columns:
-        return
-    for s, c in zip(chosen, where):
-        ids = particles.rows(int(s))[:, particles.index("id")]
-        pair = contacts.rows(int(c))[:, [contacts.index("id1"), contacts.index("id2")]]
-        absent = np.setdiff1d(pair.ravel(), ids)
-        if absent.size:
-            raise CoarseGrainError(
-                f"{', '.join(contacts.sources)}: contacts at step {int(contacts.timesteps[c])} name grain id(s) "
-                f"{absent[:5].astype(np.int64).tolist()} absent from the particle dump "
-                f"({', '.join(particles.sources)}): the contact dump is not of this run"
-            )
-    check_contact_positions(particles, contacts, chosen, where)
-
-
-#: Fraction of a snapshot's checked contacts whose first grain may sit elsewhere than the particle
-#: dump says (a grain that moved between the two dumps' writes), and how far (in grain radii).
-POSITION_MISMATCH_FRACTION = 0.05
-POSITION_TOLERANCE_OVER_RADIUS = 0.05
-
-
-def check_contact_positions(particles: Dump, contacts: Dump, chosen: np.ndarray, where: np.ndarray,
-                            sample: int = 200) -> None:
-    """Ids alone do not prove that a contact dump is of the particle dump's run (another replica of
-    the same case has the same ids): at the same timestep the first grain of each contact must sit
-    where the particle dump puts that grain (to a twentieth of its radius, periodic images along x
-    and y allowed). Checked on up to ``sample`` contacts of the first, middle and last chosen
-    snapshot; more than 5 % misplaced refuses the pairing, naming both files."""
-    if not all(c in contacts.columns for c in ("x1", "y1", "z1", "id1")):
-        return
-    picks = sorted({0, len(chosen) // 2, len(chosen) - 1}) if len(chosen) else []
-    i_id, i_r = particles.index("id"), particles.index("radius")
-    i_x = [particles.index(a) for a in "xyz"]
-    j_x = [contacts.index(a) for a in ("x1", "y1", "z1")]
-    for k in picks:
-        s, c = int(chosen[k]), int(where[k])
-        grains = particles.rows(s)
-        rows = contacts.rows(c)[:sample]
-        if rows.shape[0] == 0:
-            continue
-        order = np.argsort(grains[:, i_id])
-        found = np.searchsorted(grains[order, i_id], rows[:, contacts.index("id1")])
-        found = order[np.clip(found, 0, order.size - 1)]
-        delta = rows[:, j_x] - grains[found][:, i_x]
-        box = particles.boxes[s]
-        for axis in (0, 1):  # periodic images along x and y
-            length = box[axis, 1] - box[axis, 0]
-            delta[:, axis] -= length * np.round(delta[:, axis] / length)
-        distance = np.sqrt(np.sum(delta**2, axis=1))
-        misplaced = distance > POSITION_TOLERANCE_OVER_RADIUS * grains[found, i_r]
-        if misplaced.mean() > POSITION_MISMATCH_FRACTION:
-            raise CoarseGrainError(
-                f"{', '.join(contacts.sources)}: at step {int(contacts.timesteps[c])} the first grain of "
-                f"{int(misplaced.sum())} of {misplaced.size} contacts sits elsewhere than in the particle dump "
-                f"({', '.join(particles.sources)}; median distance {float(np.median(distance[misplaced])):.3g} m): "
-                "the contact dump is not of this run (another replica?)")
 
 
 def _rows(dump: Dump, snaps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -754,95 +676,6 @@ def coarse_grain(particles: Dump, contacts: Dump | None, kernel: Kernel, grid: G
         attrs["time_step"] = time_step
     dataset = xr.Dataset(variables, coords=coords, attrs=attrs)
     return Result(dataset, sums, time.perf_counter() - t0)
-
-
-# ---------------------------------------------------------------------------------------------
-# Command line
-
-
-def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        description="Coarse-grain LAMMPS/LIGGGHTS text dumps (dump custom particles, dump local contacts) "
-                    "into time-averaged continuum fields with standard errors, written as NetCDF.",
-        epilog="Particle dumps need columns x y z (or xu/xs) vx vy vz radius (or diameter) mass, found by "
-               "name; contact dumps need x1 y1 z1 x2 y2 z2 fx fy fz (force on particle 1), either by name "
-               "or as generic c_ID[k] columns mapped with --contact-columns (default: LIGGGHTS "
-               "pair/gran/local 'pos id force contactPoint delta' order). Stress is compressive positive.")
-    parser.add_argument("particle_dump", type=Path, nargs="+", help="particle dump file(s), joined in time")
-    parser.add_argument("--contacts", type=Path, nargs="+", default=None, help="contact dump file(s)")
-    parser.add_argument("--contact-columns", default=None,
-                        help="physical names of c_ID[1], c_ID[2], ... separated by spaces or commas")
-    parser.add_argument("--out", type=Path, required=True, help="output NetCDF file")
-    parser.add_argument("--width", type=positive_float, default=None, help="kernel width w in m (default: half the mean diameter)")
-    parser.add_argument("--kernel", choices=KERNELS, default="gaussian", help="gaussian (cut at 3 w) or lucy")
-    bins = parser.add_mutually_exclusive_group()
-    bins.add_argument("--bins", type=positive_int, default=None, help="number of z points")
-    bins.add_argument("--dx", type=positive_float, default=None, help="grid spacing in m (default w / 2)")
-    geom = parser.add_mutually_exclusive_group()
-    geom.add_argument("--axis", choices=("z",), default="z", help="profile along z (x and y integrated)")
-    geom.add_argument("--plane", choices=("xz",), default=None, help="2D field in x-z (y integrated)")
-    parser.add_argument("--t-start", type=nonnegative_float, default=None, help="first time to average from (s; needs --time-step)")
-    parser.add_argument("--time-step", type=positive_float, default=None, help="DEM time step in s (timestep -> time)")
-    parser.add_argument("--blocks", type=positive_int, default=5, help="blocks for the standard errors (default 5)")
-    parser.add_argument("--body-types", default="all",
-                        help="particle types gravity acts on, for rho_body (comma list, or 'all')")
-    parser.add_argument("--rho-s", type=positive_float, default=None,
-                        help="grain density in kg m-3 (default: from mass and radius; needed when the dump has no mass)")
-    parser.add_argument("--diameter", type=positive_float, default=None,
-                        help="grain diameter in m, for a dump without a radius or diameter column (monodisperse)")
-    parser.add_argument("--d", type=positive_float, default=None, help="particle diameter for I (default: mean diameter)")
-    return parser
-
-
-def main(argv: list[str] | None = None) -> int:
-    args = _parser().parse_args(argv)
-    # Every output of this step, the side file too, from this invocation only.
-    atomic.clear_stale(args.out.with_suffix(".vts"))
-    try:
-        particles = read_particles(args.particle_dump, rho_s=args.rho_s, diameter=args.diameter)
-        names = None
-        if args.contact_columns:
-            names = [n for n in args.contact_columns.replace(",", " ").split() if n]
-        contacts = read_contacts(args.contacts, names) if args.contacts else None
-        chosen = np.arange(len(particles))
-        if args.t_start is not None:
-            if args.time_step is None:
-                raise CoarseGrainError("--t-start needs --time-step (dumps carry timesteps, not times)")
-            chosen = np.nonzero(particles.timesteps * args.time_step >= args.t_start)[0]
-            if chosen.size == 0:
-                times = particles.timesteps * args.time_step
-                raise CoarseGrainError(f"--t-start {args.t_start:g} s is after the last snapshot: the dumps span "
-                                       f"{times.min():.6g} to {times.max():.6g} s (with --time-step {args.time_step:g})")
-        if contacts is not None:
-            check_contacts_match(particles, contacts, chosen)
-        radius = particles.column("radius")
-        d = args.d if args.d is not None else float(2.0 * radius.mean())
-        width = args.width if args.width is not None else 0.5 * d
-        kernel = Kernel(args.kernel, width)
-        z = particles.column("z")
-        dx = args.dx if args.dx is not None else width / 2.0
-        if args.plane:
-            box = particles.boxes[0]
-            grid = plane_grid(float(box[0, 0]), float(box[0, 1] - box[0, 0]), float(z.min()), float(z.max()), dx,
-                              bins_z=args.bins)
-        else:
-            grid = profile_grid(float(z.min()), float(z.max()), bins=args.bins, dz=dx)
-        body = None if args.body_types == "all" else [int(t) for t in args.body_types.split(",")]
-        result = coarse_grain(particles, contacts, kernel, grid, snapshots=chosen, d=d, rho_s=args.rho_s,
-                              blocks=args.blocks, time_step=args.time_step, body_types=body)
-    except (DumpError, CoarseGrainError, ValueError) as err:
-        print(f"error: {err}", file=sys.stderr)
-        return 1
-    ds = result.dataset
-    ds.attrs["particle_dumps"] = " ".join(str(p) for p in args.particle_dump)
-    ds.attrs["contact_dumps"] = " ".join(str(p) for p in args.contacts or [])
-    # The side file first: the main file, written last, says the step finished.
-    if args.plane:
-        print(f"{write_fields_vtk(ds, args.out.with_suffix('.vts'))}: the x-z fields for ParaView")
-    write_netcdf(ds, args.out)
-    print(f"{args.out}: {ds.attrs['number_of_snapshots']} snapshots, grid {dict(ds.sizes)}, "
-          f"{result.seconds:.2f} s")
-    return 0
 
 
 def write_netcdf(ds: xr.Dataset, path: Path) -> None:

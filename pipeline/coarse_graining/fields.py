@@ -31,8 +31,9 @@ import pandas as pd
 import xarray as xr
 
 from pipeline.coarse_graining import field_checks, structure
-from pipeline.coarse_graining.coarse_grain import (CoarseGrainError, Result, block_average, check_contacts_match, coarse_grain, contact_index, plane_grid,
-                                   profile_grid, write_netcdf)
+from pipeline.coarse_graining.coarse_grain import (CoarseGrainError, Result, block_average, coarse_grain, plane_grid, profile_grid,
+                                                   write_netcdf)
+from pipeline.coarse_graining.pairing import check_contacts_match, contact_index
 from pipeline.dumps.store import STORE_NAME, parse_run, read_run_json, read_store
 from pipeline.dumps.reader import Dump, DumpError, shift_periodic_x
 from pipeline.coarse_graining.displacement import displacement_structural_error, displacement_velocity
@@ -330,7 +331,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     from pipeline.common.config import load_config
 
-    atomic.clear_stale(args.out.with_suffix(".vts"))
+    atomic.clear_stale(args.out.with_suffix(".vts"), temporaries_of=(args.out,))
     try:
         config = load_config(args.config)
         run = read_run_json(args.run_dir)

@@ -81,7 +81,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--run-dir", type=Path, required=True)
     parser.add_argument("--out", type=Path, required=True, help="RESULTS/fields_xz/CASE/RUN.nc (a .vts is written beside it)")
     args = parser.parse_args(argv)
-    atomic.clear_stale(args.out.with_suffix(".vts"))
+    atomic.clear_stale(args.out.with_suffix(".vts"), temporaries_of=(args.out,))
     try:
         ds = rod_frame_fields(load_config(args.config), args.run_dir)
     except (DumpError, CoarseGrainError, ValueError, KeyError) as err:

@@ -21,13 +21,14 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from pipeline.common import atomic
 from pipeline.dumps.reader import Dump
 
 
 def _save(mesh, path: Path) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.stem}.tmp{path.suffix}")
+    tmp = atomic.suffixed_temporary(path)  # the suffix picks the VTK writer
     mesh.save(tmp)
     tmp.replace(path)
     return path

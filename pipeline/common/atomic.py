@@ -1,11 +1,15 @@
 """Write result files so that a failed step never leaves one that looks complete.
 
-Every writer goes to ``<name>.tmp`` in the same folder and renames at the end (a rename is
-atomic on one file system): a crash leaves at most a ``.tmp`` file, never a truncated result.
+Every writer goes to a temporary name in the same folder and renames at the end (a rename is
+atomic on one file system): a crash leaves at most a temporary file, never a truncated result.
+The temporary names are :func:`temporary` (``<name>.tmp``) and, for writers that pick the format
+by the suffix (VTK), :func:`suffixed_temporary` (``.<stem>.tmp<suffix>``, hidden); a step clears
+those a killed earlier run left of its outputs when it starts (:func:`clear_stale`).
 """
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -15,9 +19,20 @@ import xarray as xr
 from pipeline.common import cf
 
 
+def temporary(path: Path) -> Path:
+    """The name ``path`` is written under until it is complete: ``<name>.tmp``."""
+    return Path(path).with_name(Path(path).name + ".tmp")
+
+
+def suffixed_temporary(path: Path) -> Path:
+    """The temporary name for a writer that picks the format by the suffix: ``.<stem>.tmp<suffix>``."""
+    path = Path(path)
+    return path.with_name(f".{path.stem}.tmp{path.suffix}")
+
+
 def _tmp(path: Path) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
-    return path.with_name(path.name + ".tmp")
+    return temporary(path)
 
 
 def write_netcdf(dataset: xr.Dataset, path: Path, title: str | None = None) -> None:
@@ -50,9 +65,22 @@ def write_json(data: dict[str, Any], path: Path) -> None:
     write_text(json.dumps(data, indent=1, default=float), path)
 
 
-def clear_stale(*paths: Path) -> None:
-    """Remove a step's outputs from an earlier invocation before it starts, so that a step killed
-    before it writes them leaves nothing that looks complete beside its main file (a ``.vts`` of
-    another run beside a new ``.nc``)."""
+def clear_stale(*paths: Path, temporaries_of: tuple[Path, ...] = ()) -> list[Path]:
+    """Before a step starts: remove its side outputs ``paths`` from an earlier invocation, so that a
+    step killed before it writes them leaves nothing that looks complete beside its main file (a
+    ``.vts`` of another run beside a new ``.nc``), and the temporaries a killed earlier run left of
+    those and of the main outputs ``temporaries_of`` (only the two names of :func:`temporary` and
+    :func:`suffixed_temporary`, never another file), saying in one line which. Returns the
+    temporaries removed."""
     for path in paths:
         Path(path).unlink(missing_ok=True)
+    removed = []
+    for output in (*paths, *temporaries_of):
+        for stale in (temporary(output), suffixed_temporary(output)):
+            if stale.is_file():
+                stale.unlink()
+                removed.append(stale)
+    if removed:
+        print(f"note: removed {', '.join(map(str, removed))}: temporary file(s) of an earlier run of this step "
+              "that did not finish", file=sys.stderr)
+    return removed

@@ -132,7 +132,7 @@ def test_a_contact_dump_of_another_run_with_the_same_ids_and_steps_is_refused(tm
     other.write_text("\n".join(moved) + "\n")
     out = tmp_path / "f.nc"
     proc = coarse_grain(str(particles), "--contacts", str(other), "--out", str(out))
-    one_clear_line(proc, str(other), "sits elsewhere than in the particle dump", "not of this run")
+    one_clear_line(proc, str(other), "put a grain elsewhere than the particle dump", "not of this run")
     assert not out.exists()
 
 
@@ -187,3 +187,146 @@ def test_a_failed_step_leaves_no_side_file_of_an_earlier_one(tmp_path: Path, bed
     proc = coarse_grain(str(particles), "--plane", "xz", "--t-start", "1e9", "--time-step", "1e-6", "--out", str(out))
     assert proc.returncode != 0
     assert not out.exists() and not out.with_suffix(".vts").exists()
+
+
+# -------------------------------------------------------------- issue 46: three more that got through
+def error_lines(proc: subprocess.CompletedProcess) -> list[str]:
+    return [line for line in proc.stderr.splitlines() if line.startswith("error:")]
+
+
+def run_workflow(*args: str) -> subprocess.CompletedProcess:
+    """The README's workflow command (it runs scripts/install.sh first: a no-op once installed)."""
+    return subprocess.run(["bash", str(REPO / "scripts" / "run_workflow.sh"), *args], cwd=REPO, capture_output=True,
+                          text=True)
+
+
+def test_a_run_target_after_the_config_of_the_workflow_command_is_built(tmp_path: Path) -> None:
+    """``run_workflow.sh CONFIG TARGET``: the target reaches Snakemake as a target (a dry run plans
+    that run's jobs and no other), not as a second config file (a FileNotFoundError traceback)."""
+    path = config_file(tmp_path, lambda c: None)
+    target = tmp_path / "results" / "dem" / "rheometer" / "I0.2-P200-r1" / "run.json"
+    proc = run_workflow(str(path), str(target), "--dry-run")
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert "Traceback" not in proc.stderr and "FileNotFoundError" not in proc.stderr
+    assert f"output: {target}" in proc.stdout
+    planned = {line.split()[1].rstrip(":") for line in proc.stdout.splitlines() if line.startswith("rule ")}
+    assert planned == {"dem", "dem_fill"}, planned  # this run and its shared fill, not the whole workflow
+    assert not target.exists()
+
+
+def test_a_target_after_the_config_that_is_not_a_run_of_it_is_named(tmp_path: Path) -> None:
+    path = config_file(tmp_path, lambda c: None)
+    target = tmp_path / "results" / "dem" / "rheometer" / "I0.09-P600-r1" / "run.json"
+    proc = run_workflow(str(path), str(target), "--dry-run")
+    one_clear_line(proc, "error: target run rheometer/I0.09-P600-r1: not a run of this config (runs of rheometer: ")
+    assert len(error_lines(proc)) == 1
+    assert not target.parent.exists()
+
+
+def test_a_target_given_to_the_projects_snakemake_after_configfile_is_named(tmp_path: Path) -> None:
+    """``--configfile C TARGET`` reads TARGET as a config file: the wrapper says so in one line."""
+    path = config_file(tmp_path, lambda c: None)
+    target = tmp_path / "results" / "dem" / "rheometer" / "I0.2-P200-r1" / "run.json"
+    proc = snakemake("--configfile", str(path), str(target), wrapper=True)
+    one_clear_line(proc, f"error: {target}: read as a config file", f"--configfile={path}")
+    assert len(proc.stderr.strip().splitlines()) == 1
+    assert not (tmp_path / "results").exists()
+
+
+def creeping(source: Path, target: Path, drift: float) -> Path:
+    """The static bed's dump (particles or contacts) with every grain moved along x by ``drift``
+    times its height over the bed's top per snapshot: a creeping bed, the top grains moving a
+    hundredth of a radius between snapshots (a contact's grains where the particle dump puts them)."""
+    lines, out, snap, columns = source.read_text().splitlines(), [], -1, None
+    box = next(k for k, line in enumerate(lines) if line.startswith("ITEM: BOX BOUNDS"))
+    top = float(lines[box + 3].split()[1])
+    for line in lines:
+        if line == "ITEM: TIMESTEP":
+            snap += 1
+        if line.startswith("ITEM: ATOMS") or line.startswith("ITEM: ENTRIES"):
+            columns = line.split()[2:]
+            out.append(line)
+            continue
+        if line.startswith("ITEM") or columns is None or len(line.split()) != len(columns):
+            out.append(line)
+            continue
+        words = line.split()
+        # particles: x at 2, z at 4; contacts (c_pgl[1..16]): x1 0, z1 2, x2 3, z2 5, cx 13, cz 15
+        pairs = [(2, 4)] if columns[0] == "id" else [(0, 2), (3, 5), (13, 15)]
+        for x, z in pairs:
+            words[x] = repr(float(words[x]) + drift * snap * float(words[z]) / top)
+        out.append(" ".join(words))
+    target.write_text("\n".join(out) + "\n")
+    return target
+
+
+def relabelled(source: Path, target: Path) -> Path:
+    """Each contact snapshot after the first replaced by the one before it, under its own timestep:
+    the contacts of one time summed on the positions of the next, as two chunks' files mixed up."""
+    text = source.read_text()
+    blocks = ["ITEM: TIMESTEP" + b for b in text.split("ITEM: TIMESTEP")[1:]]
+    steps = [b.splitlines()[1] for b in blocks]
+    moved = [blocks[0]] + [b.replace(f"ITEM: TIMESTEP\n{old}\n", f"ITEM: TIMESTEP\n{new}\n", 1)
+                           for b, old, new in zip(blocks[:-1], steps[:-1], steps[1:])]
+    target.write_text("".join(moved))
+    return target
+
+
+def test_a_contact_dump_of_another_time_of_the_same_run_is_refused(tmp_path: Path, bed: Path) -> None:
+    """Every contact's two grains against the particle dump at that step. No grain moves more than a
+    hundredth of its radius between two snapshots: the check of the first grain of 200 contacts
+    of three snapshots, 5 % allowed past a twentieth of a radius, accepted this pair."""
+    radius = 0.001
+    particles = creeping(sorted(bed.glob("particles_*.dump"))[0], tmp_path / "particles.dump", 0.01 * radius)
+    contacts = creeping(sorted(bed.glob("contacts_*.dump"))[0], tmp_path / "contacts.dump", 0.01 * radius)
+    out = tmp_path / "out" / "fields.nc"
+    proc = coarse_grain(str(particles), "--contacts", str(contacts), "--out", str(out))
+    assert proc.returncode == 0, proc.stderr  # the pair as written: accepted
+    out.unlink()
+    other = relabelled(contacts, tmp_path / "contacts_relabelled.dump")
+    proc = coarse_grain(str(particles), "--contacts", str(other), "--out", str(out))
+    one_clear_line(proc, f"error: {other}: at step 2000 ", "contacts put a grain elsewhere than the particle dump "
+                   f"({particles}) does at that step", "not of this run at this step")
+    assert len(proc.stderr.strip().splitlines()) == 1
+    assert sorted(p.name for p in out.parent.iterdir()) == []
+
+
+KILLED_WRITER = """
+import os, signal, sys
+import pyvista, xarray
+from pipeline.coarse_graining import dumps_cli
+where = sys.argv[1]
+target = pyvista.StructuredGrid if where == "vts" else xarray.Dataset
+method = "save" if where == "vts" else "to_netcdf"
+write = getattr(target, method)
+def write_then_die(self, *args, **kwargs):
+    write(self, *args, **kwargs)
+    os.kill(os.getpid(), signal.SIGKILL)  # kill -9 with the temporary written, before its rename
+setattr(target, method, write_then_die)
+dumps_cli.main(sys.argv[2:])
+"""
+
+
+@pytest.mark.parametrize("where", ["vts", "netcdf"])
+def test_a_rerun_after_a_killed_coarse_graining_leaves_no_temporary_of_it(tmp_path: Path, bed: Path, where: str) -> None:
+    """kill -9 while the x-z fields are written leaves a temporary; the same command again removes
+    it, saying so in one line, and leaves only its own outputs (and the user's other files)."""
+    particles = sorted(bed.glob("particles_*.dump"))[0]
+    folder = tmp_path / "out"
+    folder.mkdir()
+    mine = [folder / "notes.tmp.txt", folder / ".other.tmp.vts", folder / "other.nc.tmp"]
+    for path in mine:
+        path.write_text("the user's")
+    command = [str(particles), "--plane", "xz", "--dx", "0.001", "--out", str(folder / "fields.nc")]
+    killed = subprocess.run([sys.executable, "-c", KILLED_WRITER, where, *command], cwd=REPO, capture_output=True,
+                            text=True)
+    assert killed.returncode == -9, killed.stderr
+    left = sorted(p.name for p in folder.iterdir() if p not in mine)
+    temporaries = [name for name in left if "tmp" in name]
+    assert temporaries and "fields.nc" not in left, left
+    proc = coarse_grain(*command)
+    assert proc.returncode == 0, proc.stderr
+    notes = [line for line in proc.stderr.splitlines() if line.startswith("note: removed")]
+    assert len(notes) == 1 and all(str(folder / name) in notes[0] for name in temporaries), proc.stderr
+    assert sorted(p.name for p in folder.iterdir() if p not in mine) == ["fields.nc", "fields.vts"]
+    assert all(path.read_text() == "the user's" for path in mine)

@@ -14,6 +14,7 @@ import pytest
 from scipy.integrate import quad
 
 from pipeline.coarse_graining import coarse_grain as cg
+from pipeline.coarse_graining import dumps_cli
 from pipeline.dumps.reader import Dump
 from pipeline.coarse_graining.kernels import Kernel, segment_2d
 
@@ -230,13 +231,12 @@ def test_command_line_writes_the_contract_variables(tmp_path, rng):
                      f"0 0.03\nITEM: ENTRIES c_a[1] c_a[2] c_a[3] c_a[4] c_a[5] c_a[6] c_a[7] c_a[8] c_a[9] c_a[10] "
                      f"c_a[11] c_a[12]\n")
             for k in range(2):
-                p1 = pos[k]
-                p2 = p1 + [0.0005, 0.0, -0.0015]
+                p1, p2 = pos[k], pos[k + 1]  # grains k + 1 and k + 2, where the particle dump puts them
                 fc.write(" ".join(str(x) for x in [*p1, *p2, k + 1, k + 2, 0, 1e-3, 0, 2e-3]) + "\n")
     out = tmp_path / "f.nc"
     argv = [str(tmp_path / "p.dump"), "--contacts", str(tmp_path / "c.dump"), "--out", str(out), "--width", "0.001",
             "--contact-columns", "x1 y1 z1 x2 y2 z2 id1 id2 periodic fx fy fz"]
-    assert cg.main(argv) == 0
+    assert dumps_cli.main(argv) == 0
     import xarray as xr
 
     with xr.open_dataset(out) as ds:
@@ -246,10 +246,10 @@ def test_command_line_writes_the_contract_variables(tmp_path, rng):
             assert f"{name}_err" in ds
         assert ds.attrs["kernel"] == "gaussian" and ds.attrs["width"] == 0.001
         assert ds.attrs["number_of_snapshots"] == 6
-    assert cg.main(argv[:-2] + ["--plane", "xz", "--dx", "0.001"]) == 0
+    assert dumps_cli.main(argv[:-2] + ["--plane", "xz", "--dx", "0.001"]) == 0
     with xr.open_dataset(out) as ds:
         assert ds["nu"].dims == ("x", "z")
-    assert cg.main([str(tmp_path / "missing.dump"), "--out", str(out)]) == 1
+    assert dumps_cli.main([str(tmp_path / "missing.dump"), "--out", str(out)]) == 1
 
 
 # ---- optimised path against a straightforward reference ---------------------------------------

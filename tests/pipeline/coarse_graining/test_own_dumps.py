@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from pipeline.coarse_graining import coarse_grain as cg
+from pipeline.coarse_graining import dumps_cli as cg
 
 pytestmark = pytest.mark.workflow
 
