@@ -1,0 +1,55 @@
+"""The DEM jobs' scheduling priorities (pipeline/workflow/priorities.py): upward ranks."""
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+
+import pytest
+
+from pipeline.common.config import dem_fills, dem_runs, load_config
+from pipeline.workflow.priorities import (AFTER_DEM_PRIORITY, PARTICLE_STEPS_PER_SECOND, _dependents, dem_priority, estimated_seconds,
+                                         fill_steps, upward_rank)
+
+REPO = Path(__file__).resolve().parents[3]
+
+
+@pytest.fixture(scope="module", params=[False, True], ids=["own-beds", "shared-bed"])
+def config(request: pytest.FixtureRequest) -> dict:
+    config = load_config(REPO / "config/config.yaml")
+    config["cases"]["intruder"]["shared_bed"] = request.param
+    return config
+
+
+def test_a_job_outranks_every_job_that_waits_for_it(config: dict) -> None:
+    """The rank of a job is its own estimated time plus its longest dependent chain: a shared fill,
+    a sheared bed or a rheometer state that others continue from ranks above each of them, by at
+    least its own time."""
+    chained = 0
+    for case, job in dem_fills(config) + dem_runs(config):
+        for after in _dependents(config, case, job):
+            chained += 1
+            assert upward_rank(config, case, job) >= upward_rank(config, case, after) + estimated_seconds(config, case, job) - 1e-6
+    assert chained > 0
+
+
+def test_the_rank_is_the_longest_chain_to_the_report(config: dict) -> None:
+    """The calibration case's replicas (16 strain units each, then the calibration and every model)
+    rank above every rod of the held-out intruder; every DEM rank is below the rules after the DEM."""
+    ranks = {(c, j): dem_priority(config, c, j) for c, j in dem_fills(config) + dem_runs(config)}
+    calibration = min(v for (c, j), v in ranks.items() if c == "shear_gravity" and j.startswith("r"))
+    rods = max(v for (c, j), v in ranks.items() if c == "intruder" and not j.startswith("fill"))
+    assert calibration > rods
+    assert max(ranks.values()) < AFTER_DEM_PRIORITY
+
+
+def test_the_estimate_follows_the_steps_per_strain() -> None:
+    """Steps per strain unit are gap / wall speed / dt: doubling a case's wall speed halves the
+    estimate of a run without a fill of its own's shear and production (the fill's fall is the same)."""
+    config = load_config(REPO / "config/config.yaml")
+    faster = copy.deepcopy(config)
+    faster["cases"]["shear_gravity_fast"]["wall_speed"] *= 2.0
+    case = config["cases"]["shear_gravity_fast"]
+    fill = case["n_grains"] * fill_steps(config, case) / PARTICLE_STEPS_PER_SECOND
+    slow = estimated_seconds(config, "shear_gravity_fast", "r1") - fill
+    fast = estimated_seconds(faster, "shear_gravity_fast", "r1") - fill
+    assert fast == pytest.approx(0.5 * slow)
