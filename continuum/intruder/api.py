@@ -23,7 +23,11 @@ from ..geometry import PlanarShear
 from ..parameters import CriticalStateParameters, LocalMuIParameters, NGFParameters, VolumeAveragedParameters
 from .framework import RodSolver
 from .local import kinematic_speed, layer_sliding_speed, rod_in_static_zone, yield_force
+from .cosserat2d import WHY as COSSERAT_NOT_SOLVED
+from .critical_state2d import CriticalStateRodSolver
+from .mu_i2d import MuIRodSolver
 from .ngf2d import FROZEN, NGFRodSolver, solve_frozen
+from .volume_averaged2d import VolumeAveragedRodSolver
 from .scene import GridOptions, IntruderSpeed, RodIntruder
 
 Estimate = Callable[[PlanarShear, Any, RodIntruder, float, GridOptions, dict, "str | None"], IntruderSpeed]
@@ -109,9 +113,17 @@ def _local_estimate(model: str) -> Estimate:
 INTRUDER_MODELS: dict[str, IntruderModel] = {
     "ngf": IntruderModel(NGFParameters, solver=NGFRodSolver),
     FROZEN: IntruderModel(NGFParameters, estimate=_ngf_frozen, approximates="ngf"),
-    "local_mu_i": IntruderModel(LocalMuIParameters, estimate=_local_estimate("local_mu_i")),
-    "critical_state": IntruderModel(CriticalStateParameters, estimate=_local_estimate("critical_state")),
-    "volume_averaged": IntruderModel(VolumeAveragedParameters, estimate=_local_estimate("volume_averaged")),
+    # the yield-stress models' own 2D solves (docs/intruder_models.md), and their former 1D
+    # estimates under labels of their own
+    "local_mu_i": IntruderModel(LocalMuIParameters, solver=MuIRodSolver),
+    "critical_state": IntruderModel(CriticalStateParameters, solver=CriticalStateRodSolver),
+    "volume_averaged": IntruderModel(VolumeAveragedParameters, solver=VolumeAveragedRodSolver),
+    "local_mu_i_layer_sliding": IntruderModel(LocalMuIParameters, estimate=_local_estimate("local_mu_i"),
+                                              approximates="local_mu_i"),
+    "critical_state_yield_check": IntruderModel(CriticalStateParameters, estimate=_local_estimate("critical_state"),
+                                                approximates="critical_state"),
+    "volume_averaged_kinematic": IntruderModel(VolumeAveragedParameters, estimate=_local_estimate("volume_averaged"),
+                                               approximates="volume_averaged"),
 }
 
 
@@ -132,7 +144,7 @@ def intruder_speed(model: str, geometry: PlanarShear, params: Any, intruder: Rod
     """
     if model not in INTRUDER_MODELS:
         if model == "cosserat":
-            raise NotImplementedError("cosserat has no intruder solver registered (continuum/intruder/api.py)")
+            raise NotImplementedError(COSSERAT_NOT_SOLVED)
         raise KeyError(f"unknown intruder model {model!r}; known: {sorted(INTRUDER_MODELS)}")
     entry = INTRUDER_MODELS[model]
     if not isinstance(params, entry.params_type):

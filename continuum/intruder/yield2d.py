@@ -41,8 +41,14 @@ STEP_TOL = 1e-7
 REGULARISATIONS = (1e-1, 1e-2, 1e-3, 1e-4)
 #: Newton iterations allowed per stage.
 MAX_NEWTON = 60
+#: |U| / V beyond which a Newton iterate is taken as a rod with no steady state (runaway).
+RUNAWAY = 1e3
 #: GMRES iterations (one restart cycle) before the Jacobian is factorised anew.
 _GMRES_ITERATIONS = 30
+
+
+class RunawayError(ConvergenceError):
+    """The rod's speed grows without bound: no steady state balances its push."""
 
 
 class YieldRodSolver(RodSolver):
@@ -181,6 +187,9 @@ class YieldRodSolver(RodSolver):
                 lam *= 0.5
             y = trial
             step = float(np.max(np.abs(lam * dy) / scale))
+            if disc.has_rod and abs(y[-1]) > RUNAWAY * self.geometry.wall_speed:
+                raise RunawayError(self.model, res, f"the rod runs away (U = {y[-1]:.3g} m/s at eps = {eps_rel:g} V/d): "
+                                   "no steady state balances its push", self.case)
             ev = self._evaluate(y, disc, eps_rel, True)
         res = float(np.max(np.abs(ev["residual"])))
         if res < RESIDUAL_TOL and step < STEP_TOL:
@@ -188,7 +197,7 @@ class YieldRodSolver(RodSolver):
         raise ConvergenceError(self.model, res, f"Newton not converged in {MAX_NEWTON} iterations at eps = "
                                f"{eps_rel:g} V/d (last step {step:.2g})", self.case)
 
-    def solve(self, warm: dict[str, np.ndarray] | None = None) -> RodSolution:
+    def solve_regularised(self, warm: dict[str, np.ndarray] | None = None) -> RodSolution:
         """Converged solution at the last regularisation, with the rod speed at every stage.
         ``warm`` is a previous solution's ``state`` on the same grid (the continuation then starts
         at the last regularisation)."""
@@ -198,8 +207,9 @@ class YieldRodSolver(RodSolver):
         planar_seconds = time.perf_counter() - t1
         disc = self._discretisation()
         stages = self.regularisations
-        if warm is not None and "y" in warm and warm["y"].size == disc.n:
-            y, stages = np.array(warm["y"], dtype=float), stages[-1:]
+        if warm is not None and set(warm) >= {"u", "w", "pi", "U"} and warm["u"].size == self.grid.n_cells:
+            y = np.concatenate([warm["u"], warm["w"], warm["pi"], warm["U"][:1] if disc.has_rod else []])
+            stages = stages[-1:]
         else:
             y = self._initial(planar, disc)
         by_eps: dict[float, float] = {}
@@ -219,10 +229,46 @@ class YieldRodSolver(RodSolver):
         attrs = {"tau_top": flow.tau_top, "p_min": p_min, "mu_max": float(flow.mu[self.material].max()),
                  "nx": self.grid.nx, "nz": self.grid.nz, "regularisation": stages[-1],
                  "rod_force": float(-ev["rod_force"]) if disc.has_rod else float("nan"),
-                 "speed_by_regularisation": by_eps}
-        state = {"y": y.copy()}
+                 # the rate-independent models have no linear response to report
+                 "drift_speed": float("nan"), "mobility": float("nan")}
+        attrs.update({f"speed_at_eps_{e:.0e}": v for e, v in by_eps.items()})
+        nc, nw = self.grid.n_cells, self.grid.n_w
+        # the first entry has the cells' size (the registry's warm-start check)
+        state = {"u": y[:nc].copy(), "w": y[nc:nc + nw].copy(), "pi": y[nc + nw:2 * nc + nw].copy(),
+                 "U": np.array([y[-1] if disc.has_rod else np.nan])}
         return RodSolution(self.model, flow.rod_speed, True, iterations, residuals, time.perf_counter() - t0,
                            self.grid.n_cells, flow, state, self._dataset(flow, {}), planar, planar_seconds, attrs)
+
+    def limit_load(self, speeds_over_v: tuple[float, ...] = (10.0, 100.0)) -> dict[str, float]:
+        """The force per length (N m-1) the material resists the rod with when the rod is driven
+        at each of ``speeds_over_v`` x V (the rate-independent laws: the limit load once the rod
+        outruns the wall, F(U) rising to it as U / V grows; the regularisation of this solver's
+        last stage). Keys ``limit_force_<k>V``."""
+        out = {}
+        for k in speeds_over_v:
+            driven = type(self)(self.geometry, self.params, self.cell_length_x, self.rod, self.options, self.case,
+                                self.regularisations, rod_speed=k * self.geometry.wall_speed)
+            out[f"limit_force_{k:g}V"] = float(driven.solve_regularised().attrs["rod_force"])
+        return out
+
+    def solve(self, warm: dict[str, np.ndarray] | None = None) -> RodSolution:
+        """``solve_regularised``; where a rod under a given push finds no steady state (it runs
+        away, or Newton fails), the limit load is computed (``limit_load``) and, if the push
+        exceeds it, ``OutOfRangeError`` reports it as a number (the model's answer: the rod
+        fails). A failure below the computed limit load stays a ``ConvergenceError``."""
+        try:
+            return self.solve_regularised(warm)
+        except ConvergenceError as exc:
+            if self.rod is None or self.driven_speed is not None:
+                raise
+            loads = self.limit_load()
+            f_lim = max(loads.values())
+            if self.rod.force_per_length > f_lim:
+                raise OutOfRangeError(self.model, f"the rod fails: push F = {self.rod.force_per_length:.4g} N/m is "
+                                      f"above the 2D limit load {f_lim:.4g} N/m (force resisted with the rod driven at "
+                                      f"10 V, 100 V: {', '.join(f'{v:.4g}' for v in loads.values())} N/m)",
+                                      self.case) from exc
+            raise
 
     def _flow(self, y: np.ndarray, ev: dict, disc: Discretisation) -> Flow:
         """The framework's ``Flow`` of a Newton state (for its Dataset and diagnostics)."""
