@@ -47,7 +47,8 @@ def main(argv: list[str] | None = None) -> int:
                          f"(its fills: {', '.join(fills) or 'none'})")
         record = run_shared_fill(config, args.case, args.run, out)
         atomic.write_json(record, out / FILL_RECORD)
-        print(f"{args.case}/{args.run}: {record['steps_by_stage']['fill']} steps in {record['fill']['wall_seconds']:.1f} s of LIGGGHTS")
+        print(f"{args.case}/{args.run}: {record['steps_by_stage']['fill']} steps in {record['fill']['wall_seconds']:.1f} s of "
+              f"{record['fill'].get('engine', 'liggghts')}")
         return 0
     runs = [r for c, r in dem_runs(config) if c == args.case]
     # Size-study runs (L<cell>-r<k>) belong to their case's study, which a run's own config omits.
@@ -84,5 +85,5 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{args.case}/{args.run}: depth {rod['depth_over_d']:.2f} d, speed {rod['speed']:.3g} +- {rod['speed_err']:.2g} m/s, "
               f"arrested {rod['arrested']}")
     else:
-        print(f"{args.case}/{args.run}: {record['steps']} steps in {record['wall_clock_seconds']:.1f} s of LIGGGHTS")
+        print(f"{args.case}/{args.run}: {record['steps']} steps in {record['wall_clock_seconds']:.1f} s of {record['engine']}")
     return 0

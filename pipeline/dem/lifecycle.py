@@ -128,9 +128,11 @@ class ChunkedRun:
         if not record_path.is_file():
             raise DEMRunError(f"{self.label}: --fill-from {source}: no {FILL_RECORD} there (the shared fill has not run)")
         record = json.loads(record_path.read_text())
-        # A fill's restart is its engine's own format: another engine cannot continue it.
-        if record.get("engine", DEFAULT_ENGINE) != self.engine.name:
-            raise DEMRunError(f"{self.label}: {record_path} was poured by {record.get('engine', DEFAULT_ENGINE)}, "
+        # A fill's restart is its engine's own format: another engine cannot continue it. The
+        # engine is in the fill's own record (PlanarShearRun._fill); older fills are LIGGGHTS's.
+        poured_by = record.get("fill", {}).get("engine", DEFAULT_ENGINE)
+        if poured_by != self.engine.name:
+            raise DEMRunError(f"{self.label}: {record_path} was poured by {poured_by}, "
                               f"this run's dem.engine is {self.engine.name}: rerun the fill")
         own_fill = shared_fill_of(self.case_name, self.case, self.run_id)
         if own_fill != record.get("run") or record.get("physics") != fill_physics(self.config, self.case_name, own_fill):

@@ -221,3 +221,32 @@ def test_lammps_contact_law_is_liggghts_term_by_term(tmp_path: Path) -> None:
     np.testing.assert_allclose(f1[0], -(elastic + normal_damping), rtol=2e-5)
     np.testing.assert_allclose(f1[1], -tangential_damping, rtol=2e-5)
     assert normal_damping > 0.1 * elastic and tangential_damping < mu * (elastic + normal_damping)
+
+
+def test_a_fill_poured_by_the_other_engine_is_refused(tmp_path: Path) -> None:
+    """A shared fill's restart is its engine's own: a LAMMPS run refuses a LIGGGHTS fill (the
+    engine is in the fill's record) before copying anything, and takes a LAMMPS one."""
+    import json
+
+    from pipeline.common.config import fill_physics, run_config
+    from pipeline.dem.planar_run import FILL_FILES, FILL_RECORD
+    config = run_config(load_config(CI), "rheometer", "I0.02-P200-r1")
+    config["dem"]["engine"] = "lammps"
+    for engine in ("liggghts", "lammps"):
+        source = tmp_path / engine / "fill-r1"
+        for name in FILL_FILES:
+            (source / name).parent.mkdir(parents=True, exist_ok=True)
+            (source / name).write_text("")
+        record = {"run": "fill-r1", "physics": fill_physics(config, "rheometer", "fill-r1"),
+                  "fill": {"steps": 10, "wall_seconds": 1.0, "settled_gap": 0.03, "engine": engine}}
+        (source / FILL_RECORD).write_text(json.dumps(record))
+        run = PlanarShearRun(config, "rheometer", "I0.02-P200-r1", tmp_path / engine / "run", fill_from=source)
+        run.run_dir.mkdir(parents=True)
+        run._load_state()
+        if engine == "liggghts":
+            with pytest.raises(DEMRunError, match=r"fill\.json was poured by liggghts, this run's dem.engine is lammps"):
+                run._adopt_fill(source)
+            assert not (run.run_dir / "fill.restart").exists()
+        else:
+            run._adopt_fill(source)
+            assert (run.run_dir / "fill.restart").exists()
