@@ -28,7 +28,7 @@ from pipeline.dumps.reader import Dump
 def _save(mesh, path: Path) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = atomic.suffixed_temporary(path)  # the suffix picks the VTK writer
+    tmp = atomic.temporary(path)  # keeps the suffix: it picks the VTK writer
     mesh.save(tmp)
     tmp.replace(path)
     return path

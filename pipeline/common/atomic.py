@@ -2,9 +2,8 @@
 
 Every writer goes to a temporary name in the same folder and renames at the end (a rename is
 atomic on one file system): a crash leaves at most a temporary file, never a truncated result.
-The temporary names are :func:`temporary` (``<name>.tmp``) and, for writers that pick the format
-by the suffix (VTK), :func:`suffixed_temporary` (``.<stem>.tmp<suffix>``, hidden); a step clears
-those a killed earlier run left of its outputs when it starts (:func:`clear_stale`).
+Each output has one temporary name, :func:`temporary`; a step clears those a killed earlier run
+left of its outputs when it starts (:func:`clear_stale`).
 """
 from __future__ import annotations
 
@@ -19,15 +18,17 @@ import xarray as xr
 from pipeline.common import cf
 
 
+#: Suffixes whose writer picks the format by the file name (VTK's): their temporary keeps the suffix.
+SUFFIX_PICKS_FORMAT = (".vts", ".vtp", ".vtu")
+
+
 def temporary(path: Path) -> Path:
-    """The name ``path`` is written under until it is complete: ``<name>.tmp``."""
-    return Path(path).with_name(Path(path).name + ".tmp")
-
-
-def suffixed_temporary(path: Path) -> Path:
-    """The temporary name for a writer that picks the format by the suffix: ``.<stem>.tmp<suffix>``."""
+    """The name ``path`` is written under until it is complete: ``<name>.tmp``, or for
+    :data:`SUFFIX_PICKS_FORMAT` ``.<stem>.tmp<suffix>`` (hidden, so not taken for a result)."""
     path = Path(path)
-    return path.with_name(f".{path.stem}.tmp{path.suffix}")
+    if path.suffix in SUFFIX_PICKS_FORMAT:
+        return path.with_name(f".{path.stem}.tmp{path.suffix}")
+    return path.with_name(path.name + ".tmp")
 
 
 def _tmp(path: Path) -> Path:
@@ -69,17 +70,16 @@ def clear_stale(*paths: Path, temporaries_of: tuple[Path, ...] = ()) -> list[Pat
     """Before a step starts: remove its side outputs ``paths`` from an earlier invocation, so that a
     step killed before it writes them leaves nothing that looks complete beside its main file (a
     ``.vts`` of another run beside a new ``.nc``), and the temporaries a killed earlier run left of
-    those and of the main outputs ``temporaries_of`` (only the two names of :func:`temporary` and
-    :func:`suffixed_temporary`, never another file), saying in one line which. Returns the
-    temporaries removed."""
+    those and of the main outputs ``temporaries_of`` (their :func:`temporary` names only, never
+    another file), saying in one line which. Returns the temporaries removed."""
     for path in paths:
         Path(path).unlink(missing_ok=True)
     removed = []
     for output in (*paths, *temporaries_of):
-        for stale in (temporary(output), suffixed_temporary(output)):
-            if stale.is_file():
-                stale.unlink()
-                removed.append(stale)
+        stale = temporary(output)
+        if stale.is_file():
+            stale.unlink()
+            removed.append(stale)
     if removed:
         print(f"note: removed {', '.join(map(str, removed))}: temporary file(s) of an earlier run of this step "
               "that did not finish", file=sys.stderr)

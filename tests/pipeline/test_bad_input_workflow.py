@@ -321,7 +321,7 @@ def test_a_rerun_after_a_killed_coarse_graining_leaves_no_temporary_of_it(tmp_pa
     particles = sorted(bed.glob("particles_*.dump"))[0]
     folder = tmp_path / "out"
     folder.mkdir()
-    mine = [folder / "notes.tmp.txt", folder / ".other.tmp.vts", folder / "other.nc.tmp"]
+    mine = [folder / "notes.tmp.txt", folder / ".other.tmp.vts", folder / "other.nc.tmp", folder / ".fields.tmp.nc"]
     for path in mine:
         path.write_text("the user's")
     plane = ["--plane", "xz", "--dx", "0.001"]
