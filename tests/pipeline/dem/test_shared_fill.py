@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from pipeline.common.config import fill_physics, load_config, run_config
+from pipeline.common.config import dem_runs, fill_physics, load_config, run_config
 from pipeline.dem.liggghts_log import DEMRunError
 from pipeline.dem.planar_run import FILL_FILES, FILL_RECORD, PlanarShearRun
 
@@ -49,26 +49,33 @@ def test_the_states_of_a_replica_shear_from_one_settled_packing(reduced_results:
 
 
 @pytest.mark.liggghts
-def test_an_intruder_control_starts_from_its_sheared_twin_s_packing(reduced_results: Path) -> None:
+def test_an_intruder_replica_s_rods_go_into_one_sheared_bed(reduced_results: Path) -> None:
+    """config/ci.yaml sets cases.intruder.shared_bed (pipeline/dem/sheared_bed.py): one bed, sheared to
+    steady state with the creep test, and every run of the replica (depths, pushes, control) restarts
+    from its final state with its rod inserted; the bed's work is counted once."""
     dem = reduced_results / "dem" / "intruder"
+    config = load_config(reduced_results / "config.effective.json")
     fills = sorted(dem.glob("fill-*/fill.json"))
-    assert [f.parent.name for f in fills] == ["fill-D4-r1"]
-    fill = json.loads(fills[0].read_text())
-    twins = [json.loads((dem / run / "run.json").read_text()) for run in ("D4-r1", "D4-control-r1")]
-    for run, record in zip(("D4-r1", "D4-control-r1"), twins, strict=True):
-        assert (dem / run / "fill.restart").read_bytes() == (fills[0].parent / "fill.restart").read_bytes()
-        assert record["shared_fill"]["run"] == "fill-D4-r1" and record["steps_by_stage"]["fill"] == 0
-        # The rod the fill made, counted in the run's grains.
-        assert record["particle_count"] == fill["particle_count"]
-    # Same rod at the same depth below the same top wall at the fill: the wall at rest is the only
-    # difference (the depths in production differ, as the two beds compact differently).
-    assert twins[0]["intruder"]["depth_at_fill_over_d"] == twins[1]["intruder"]["depth_at_fill_over_d"]
-    assert json.loads((dem / "D4-r1" / "state.json").read_text())["intruder"] == fill["bodies"]
-    assert json.loads((dem / "D4-control-r1" / "state.json").read_text())["intruder"] == fill["bodies"]
-    assert twins[0]["wall_speed"] > 0 and twins[1]["wall_speed"] == 0
-    # The deeper run pours its own.
-    deeper = json.loads((dem / "D7-r1" / "run.json").read_text())
-    assert deeper["shared_fill"] is None and deeper["steps_by_stage"]["fill"] > 0
+    assert [f.parent.name for f in fills] == ["fill-sheared-r1"]
+    bed = json.loads(fills[0].read_text())
+    test = bed["bed"]["steady_state_test"]
+    assert test["stationary"] and test["creep"]["stationary"]
+    assert bed["steps_by_stage"]["fill"] > 0 and bed["steps_by_stage"]["shear"] > 0
+    restart = (fills[0].parent / bed["bed"]["restart"]).read_bytes()
+    runs = [run for case, run in dem_runs(config) if case == "intruder"]
+    for run in runs:
+        record = json.loads((dem / run / "run.json").read_text())
+        assert (dem / run / "bed.restart").read_bytes() == restart, run
+        assert record["shared_fill"] == {"run": "fill-sheared-r1", "steps": sum(bed["steps_by_stage"].values()),
+                                         "wall_seconds": sum(bed["wall_seconds_by_stage"].values())}
+        assert record["steps_by_stage"]["fill"] == 0
+        inserted = record["intruder"]["inserted"]
+        # The bed's grains less those the rod overlapped, and no others, are the run's.
+        assert 0 < inserted["removed_grains"] and record["flowing_grains"] == bed["bed"]["n_grains"] - inserted["removed_grains"]
+        # Its time runs on from the bed's: the run continued the bed's flow.
+        assert record["production_window"][0] > bed["bed"]["time"]
+    control = json.loads((dem / f"D{min(config['cases']['intruder']['depths_below_top']):g}-control-r1" / "run.json").read_text())
+    assert control["wall_speed"] == 0 and control["shared_fill"]["run"] == "fill-sheared-r1"
 
 
 @pytest.mark.liggghts
