@@ -38,7 +38,10 @@ RESIDUAL_TOL = 1e-6
 #: Largest Newton step of a converged stage, over V (velocities, U) and P_wall (pressure).
 STEP_TOL = 1e-7
 #: The regularisations eps d / V of the continuation; the last one is the reported solution.
-REGULARISATIONS = (1e-1, 1e-2, 1e-3, 1e-4)
+REGULARISATIONS = (1e-1, 1e-2, 1e-3, 1e-4, 1e-5)
+#: d ln U / d ln eps between the last two stages above which U is the creep of a rigid zone
+#: (U proportional to eps): the model's speed is then 0, with U(last eps) kept as its bound.
+RIGID_SLOPE = 0.9
 #: Newton iterations allowed per stage.
 MAX_NEWTON = 60
 #: |U| / V beyond which a Newton iterate is taken as a rod with no steady state (runaway).
@@ -71,6 +74,7 @@ class YieldRodSolver(RodSolver):
         self._planar: xr.Dataset | None = None
         self._lu = None
         self.factorisations = 0
+        self.last_limit_load: dict[str, float] = {}  # set when ``solve`` computed the limit load
 
     # ---- the model's law ------------------------------------------------------------------
     @property
@@ -131,6 +135,8 @@ class YieldRodSolver(RodSolver):
         y[:nc], y[nc + nw:2 * nc + nw] = u, pi
         if self.rod is not None:
             U = float(np.interp(self.rod.depth_from_bottom, planar.z.values, planar.u_x.values))
+            if self.driven_speed is not None:
+                U = self.driven_speed
             y[:nc][self.mask.u_faces] = U
             y[nc + nw:2 * nc + nw][self.mask.pinned_cells] = 0.0
             y[-1] = U
@@ -181,8 +187,17 @@ class YieldRodSolver(RodSolver):
             lam = 1.0
             while True:
                 trial = y + lam * dy
-                ev_t = self._evaluate(trial, disc, eps_rel, False)
-                if np.linalg.norm(ev_t["residual"]) <= (1.0 - 1e-4 * lam) * norm0 or lam < 1.0 / 512:
+                try:
+                    with np.errstate(over="raise", invalid="raise"):
+                        norm = float(np.linalg.norm(self._evaluate(trial, disc, eps_rel, False)["residual"]))
+                except FloatingPointError:
+                    norm = np.inf  # a step so large the stresses overflow: shorten it
+                if norm <= (1.0 - 1e-4 * lam) * norm0:
+                    break
+                if lam < 1.0 / 512:
+                    if not np.isfinite(norm):
+                        raise RunawayError(self.model, res, f"Newton steps overflow at eps = {eps_rel:g} V/d "
+                                           "(the rod runs away)", self.case)
                     break
                 lam *= 0.5
             y = trial
@@ -197,6 +212,7 @@ class YieldRodSolver(RodSolver):
         raise ConvergenceError(self.model, res, f"Newton not converged in {MAX_NEWTON} iterations at eps = "
                                f"{eps_rel:g} V/d (last step {step:.2g})", self.case)
 
+    @np.errstate(under="ignore")  # products of the rigid zones' tiny rates underflow harmlessly
     def solve_regularised(self, warm: dict[str, np.ndarray] | None = None) -> RodSolution:
         """Converged solution at the last regularisation, with the rod speed at every stage.
         ``warm`` is a previous solution's ``state`` on the same grid (the continuation then starts
@@ -224,22 +240,35 @@ class YieldRodSolver(RodSolver):
         if p_min < P_FLOOR * self.top_pressure:
             raise OutOfRangeError(self.model, f"pressure {p_min:.3g} Pa next to the rod: the bed opens in tension",
                                   self.case)
+        speed = flow.rod_speed
+        if disc.has_rod and len(by_eps) >= 2:
+            (e1, u1), (e2, u2) = list(by_eps.items())[-2:]
+            slope = float(np.log(abs(u1) / abs(u2)) / np.log(e1 / e2)) if u1 * u2 > 0.0 else float("nan")
+            rigid = bool(slope >= RIGID_SLOPE)
+            if rigid:
+                speed = 0.0
+        else:
+            slope, rigid = float("nan"), False
         residuals = {"residual": res, "residual_over_tol": res / RESIDUAL_TOL, "step": step,
                      "step_over_tol": step / STEP_TOL}
         attrs = {"tau_top": flow.tau_top, "p_min": p_min, "mu_max": float(flow.mu[self.material].max()),
                  "nx": self.grid.nx, "nz": self.grid.nz, "regularisation": stages[-1],
                  "rod_force": float(-ev["rod_force"]) if disc.has_rod else float("nan"),
                  # the rate-independent models have no linear response to report
-                 "drift_speed": float("nan"), "mobility": float("nan")}
+                 "drift_speed": float("nan"), "mobility": float("nan"),
+                 # the limit eps -> 0: slope d ln U / d ln eps of the last two stages, and whether
+                 # it says U is a rigid zone's creep (speed 0, U(last eps) its upper bound)
+                 "regularisation_slope": slope, "rigid_in_limit": int(rigid),
+                 "speed_bound": float(flow.rod_speed)}
         attrs.update({f"speed_at_eps_{e:.0e}": v for e, v in by_eps.items()})
         nc, nw = self.grid.n_cells, self.grid.n_w
         # the first entry has the cells' size (the registry's warm-start check)
         state = {"u": y[:nc].copy(), "w": y[nc:nc + nw].copy(), "pi": y[nc + nw:2 * nc + nw].copy(),
                  "U": np.array([y[-1] if disc.has_rod else np.nan])}
-        return RodSolution(self.model, flow.rod_speed, True, iterations, residuals, time.perf_counter() - t0,
+        return RodSolution(self.model, speed, True, iterations, residuals, time.perf_counter() - t0,
                            self.grid.n_cells, flow, state, self._dataset(flow, {}), planar, planar_seconds, attrs)
 
-    def limit_load(self, speeds_over_v: tuple[float, ...] = (10.0, 100.0)) -> dict[str, float]:
+    def limit_load(self, speeds_over_v: tuple[float, ...] = (3.0, 10.0)) -> dict[str, float]:
         """The force per length (N m-1) the material resists the rod with when the rod is driven
         at each of ``speeds_over_v`` x V (the rate-independent laws: the limit load once the rod
         outruns the wall, F(U) rising to it as U / V grows; the regularisation of this solver's
@@ -262,11 +291,12 @@ class YieldRodSolver(RodSolver):
             if self.rod is None or self.driven_speed is not None:
                 raise
             loads = self.limit_load()
+            self.last_limit_load = loads
             f_lim = max(loads.values())
             if self.rod.force_per_length > f_lim:
                 raise OutOfRangeError(self.model, f"the rod fails: push F = {self.rod.force_per_length:.4g} N/m is "
                                       f"above the 2D limit load {f_lim:.4g} N/m (force resisted with the rod driven at "
-                                      f"10 V, 100 V: {', '.join(f'{v:.4g}' for v in loads.values())} N/m)",
+                                      f"3 V, 10 V: {', '.join(f'{v:.4g}' for v in loads.values())} N/m)",
                                       self.case) from exc
             raise
 

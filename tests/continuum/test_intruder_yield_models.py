@@ -1,0 +1,97 @@
+"""The yield-stress models around the rod in 2D (issue 43, items 3-4; docs/intruder_models.md):
+without the rod each reproduces its own 1D planar solution; the regularisation limit; critical
+state's limit load bounded (rigid below its onset, refused above its limit load). Default
+calibration (mu_s 0.374, mu_2 1.023, I_0 0.637, nu_c 0.5868, a 0.141, l = 1.165 d,
+sigma_zz / p = 1.058) on the intruder case's bed (21.6 d, L_x = 12 d, rod 3 d)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import continuum
+from continuum.errors import OutOfRangeError
+from continuum.geometry import PlanarShear
+from continuum.intruder import GridOptions, RodIntruder, intruder_speed
+from continuum.intruder.critical_state2d import CriticalStateRodSolver
+from continuum.intruder.mu_i2d import MuIRodSolver
+from continuum.intruder.volume_averaged2d import VolumeAveragedRodSolver
+from continuum.parameters import (CriticalStateLine, CriticalStateParameters, LocalMuIParameters, MuIParameters,
+                                  SolidFractionLaw, VolumeAveragedParameters)
+
+D = 0.002
+GEO = PlanarShear(depth=21.6 * D, wall_speed=0.1, wall_pressure=200.0, gravity=9.81, d=D, rho_s=2500.0,
+                  normal_stress_ratio=1.058)
+LX = 12 * D
+CS = CriticalStateParameters(0.374, CriticalStateLine(0.5868, 0.005, 300.0))
+LOCAL = LocalMuIParameters(MuIParameters(0.374, 1.023, 0.637), SolidFractionLaw(0.5868, 0.141))
+VA = VolumeAveragedParameters(CS, 1.165 * D)
+#: The cell without the rod is x-independent: a narrow periodic cell (2 d) is the same problem.
+NARROW = 2 * D
+
+
+def no_rod_error(solver_type: type, params: object, cells_per_d: float, regularisations: tuple[float, ...]):
+    """Largest |u_x - u_1D| / V over the cell centres, the x variation of u_x, and the 2D and 1D
+    top-wall shear stresses."""
+    sol = solver_type(GEO, params, NARROW, None, GridOptions(cells_per_d=cells_per_d),
+                      regularisations=regularisations).solve()
+    ref = continuum.solve(solver_type.model, GEO, params, n_grid=4001)
+    ux = sol.fields.u_x.values
+    u1 = np.interp(sol.fields.z.values, ref.z.values, ref.u_x.values)
+    err = float(np.max(np.abs(ux.mean(axis=1) - u1))) / GEO.wall_speed
+    return err, float(np.ptp(ux, axis=1).max()) / GEO.wall_speed, sol.attrs["tau_top"], ref.attrs["tau"]
+
+
+def test_critical_state_without_rod_is_its_1d_band() -> None:
+    # 1D: rigid below a band on the top wall (tau = sin_phi P_wall / r). The regularised creep
+    # below is ~ eps mu / (sin_phi - mu) d: at 1e-5 V / d it stays under 1e-3 V.
+    err, spread, tau2, tau1 = no_rod_error(CriticalStateRodSolver, CS, 4, (1e-1, 1e-2, 1e-3, 1e-4, 1e-5))
+    assert err <= 1e-3 and spread <= 1e-9
+    assert tau2 == pytest.approx(tau1, rel=1e-3)
+
+
+def test_local_mu_i_without_rod_is_its_1d_flow() -> None:
+    # The 3.5 d flowing layer under the top wall is resolved to 1e-3 V at 8 cells per d
+    # (second order: 2.6e-3 V at 4 cells per d).
+    err, spread, tau2, tau1 = no_rod_error(MuIRodSolver, LOCAL, 8, (1e-1, 1e-2, 1e-3, 1e-4, 1e-5))
+    assert err <= 1e-3 and spread <= 1e-9
+    assert tau2 == pytest.approx(tau1, rel=1e-3)
+
+
+def test_volume_averaged_without_rod_converges_to_its_1d_creep() -> None:
+    # The exponential creep exp(-(H - z) / l) under the top wall's band, with the wall condition
+    # l dD/dn = -D: the error falls as h^2 (ratio 4 from 4 to 8 cells per d, within 25 %), so the
+    # 2D solution converges to the 1D one; the extrapolated error is below 1e-3 V.
+    regs = (1e-1, 1e-2, 1e-3, 1e-4)
+    e4, s4, tau4, tau1 = no_rod_error(VolumeAveragedRodSolver, VA, 4, regs)
+    e8, s8, tau8, _ = no_rod_error(VolumeAveragedRodSolver, VA, 8, regs)
+    assert 3.0 <= e4 / e8 <= 5.0
+    assert e8 - (e4 - e8) / 3.0 <= 1e-3 and max(s4, s8) <= 1e-9
+    assert tau8 == pytest.approx(tau1, rel=1e-3)
+
+
+def test_critical_state_rod_below_its_onset_is_rigid_in_the_limit() -> None:
+    """A rod pushed at 0.3 of the DEM's yield force at 6.5 d: the regularised U is the creep of
+    a rigid zone, proportional to eps (to 1 %) over two decades, so the model's U -> 0."""
+    rod = RodIntruder.below_top(GEO, 3 * D, 6.5 * D, 1.096)
+    res = intruder_speed("critical_state", GEO, CS, rod, LX, GridOptions(cells_per_d=2))
+    u = [res.attrs[f"speed_at_eps_{e:.0e}"] for e in (1e-2, 1e-3, 1e-4, 1e-5)]
+    assert all(a / b == pytest.approx(10.0, rel=1e-2) for a, b in zip(u, u[1:]))
+    # the model's answer: at rest, with the last stage's creep (~ 10 eps d next to the rod,
+    # where mu is close to sin_phi) as the bound
+    assert res.speed == 0.0 and res.attrs["rigid_in_limit"] == 1
+    assert 0.0 < res.attrs["speed_bound"] < 20.0 * 1e-5 * GEO.wall_speed
+    assert res.attrs["rod_force"] == pytest.approx(1.096, rel=1e-9)
+
+
+def test_critical_state_refuses_a_push_above_its_limit_load() -> None:
+    """Above the limit load no stress field within the yield surface balances the push: refused,
+    with the computed limit load, which lies above the onset push of the test before."""
+    solver = CriticalStateRodSolver(GEO, CS, LX, RodIntruder.below_top(GEO, 3 * D, 6.5 * D, 20.0),
+                                    GridOptions(cells_per_d=2), regularisations=(1e-1, 1e-2))
+    with pytest.raises(OutOfRangeError, match="limit load"):
+        solver.solve()
+    loads = solver.last_limit_load
+    # the force the material resists with no longer depends on the rod's speed once it outruns
+    # the wall (3 V against 10 V within 1 %): that plateau is the limit load
+    assert loads["limit_force_3V"] == pytest.approx(loads["limit_force_10V"], rel=1e-2)
+    assert 1.096 < loads["limit_force_10V"] < 20.0
