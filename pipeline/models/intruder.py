@@ -1,20 +1,30 @@
-"""Each model's intruder speed at the DEM's depths: ``models/intruder/{model}.nc``.
+"""Each model's intruder speed at the DEM's depths and pushes: ``models/intruder/{model}.nc`` and,
+per parameter draw, ``model_draws/intruder/{model}.nc``.
 
-For every sheared intruder run (the controls are DEM checks, not predictions) the geometry comes
-from the run's fields file (wall-to-wall depth, load, gravity, wall speed) and its run.json (rod
-diameter, depth below the top wall, push force); the model parameters from params.json.
-``continuum.intruder.intruder_speed`` does the solve: NGF in 2D (far-field fluidity, small-force
-limit), the local models by a yield-force check, the volume-averaged model from its 1D creep
-(docs/intruder.md). A depth the model refuses (rod in its flowing layer, push above its yield
-force) is not written as a number: it is listed in the ``refused`` attribute with the reason.
+One scene per target depth and push (the first replica's run: the replicas' scenes differ by a
+fraction of a grain in depth): the geometry from its fields file (wall-to-wall depth, load,
+gravity, wall speed), the rod from its run.json (diameter, depth below the top wall, push), the
+parameters from params.json. ``continuum.intruder.intruder_speed`` solves it with the label's
+entry of ``INTRUDER_MODELS``: NGF by its coupled 2D solve (the model as written); beside NGF's
+speed the file carries ``ngf_frozen`` (far-field fluidity, one Stokes solve: a named
+approximation, never NGF's score) as ``speed_frozen`` / ``sweep_speed_frozen``. A scene the model
+refuses (rod in its flowing layer, a push above its yield force, a bed opening in tension) or
+whose 2D solve does not converge is not written as a number: it is listed in ``refused``.
+
+Cost (issue 43, item 7): a scene at a depth already solved starts from that solution (the force
+sweep is a continuation in F); each parameter draw starts from the nominal solution of its
+scene. 2D solves run at ``CELLS_PER_D``; the grid study (``speed_refined``: u_num) at
+``REFINED_CELLS_PER_D``.
 
 Usage: ``python -m pipeline.models.intruder --config C --params params.json --model ngf
---runs RESULTS/dem/intruder/D4-r1/run.json ... --fields RESULTS/fields/intruder/D4-r1.nc ... --out F.nc``
+--runs RESULTS/dem/intruder/D5-r1/run.json ... --fields RESULTS/fields/intruder/D5-r1.nc ... --out F.nc``
 """
 from __future__ import annotations
 
 import argparse
 import json
+import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -22,7 +32,8 @@ import numpy as np
 import xarray as xr
 
 import continuum
-from continuum.intruder import GridOptions, RodIntruder, intruder_speed
+from continuum.intruder import INTRUDER_MODELS, GridOptions, IntruderSpeed, RodIntruder, intruder_speed
+from continuum.geometry import PlanarShear
 from pipeline.common.formats import open_fields
 from pipeline.common import atomic
 from pipeline.calibration.parameter_sets import model_parameters, normal_stress_ratio, params_of_draw
@@ -31,141 +42,224 @@ from pipeline.common.config import load_config
 from pipeline.common.provenance import provenance_attrs
 
 
-#: Parameter draws solved per intruder model when the config's ``models.intruder_draws`` is absent:
-#: NGF's 2D solve takes about 0.3 s a depth, against milliseconds for a planar profile.
+#: Parameter draws solved per intruder model when the config's ``models.intruder_draws`` is absent.
 DEFAULT_INTRUDER_DRAWS = 32
+#: Cells per d of the 2D solves. NGF coupled at 3 and 4 cells/d differs by 0.04-4 % in U (issue
+#: 43; benchmarks/intruder_solve.py), under a tenth of the DEM's 25 % error on U, at half the cost.
+CELLS_PER_D = 3.0
+#: The grid study's finer grid (u_num = its difference from CELLS_PER_D).
+REFINED_CELLS_PER_D = 4.0
+#: Labels solved beside a model and written into its file (variables ``<name>_<suffix>``).
+APPROXIMATIONS = {"ngf": {"ngf_frozen": "frozen"}}
 
 
-def run_speed(model: str, parameters: Any, params: dict[str, Any], run: dict[str, Any], ds: xr.Dataset,
-              cells_per_d: float) -> tuple[Any, str | None]:
-    """The model's result for one sheared run (``IntruderSpeed``) or None and why it was refused."""
+@dataclass
+class Scene:
+    """One target depth and push: its first replica's run record and fields, the cell and rod."""
+
+    run: dict[str, Any]
+    geometry: PlanarShear
+    rod: RodIntruder
+    cell_length_x: float
+    label: str
+
+    @property
+    def force_sweep(self) -> bool:
+        return bool(self.run["intruder"].get("force_sweep"))
+
+    @property
+    def depth_over_d(self) -> float:
+        return float(self.run["intruder"]["depth_over_d"])
+
+    @property
+    def push_over_yield(self) -> float:
+        return float(self.run["intruder"].get("push_over_yield", np.nan))
+
+    @property
+    def target(self) -> float:
+        return round(float(self.run["intruder"]["depth_target_over_d"]), 6)
+
+
+def scene_of(run: dict[str, Any], ds: xr.Dataset, params: dict[str, Any]) -> Scene:
     rod = run["intruder"]
     geometry, z0 = planar_cell([ds], normal_stress_ratio(params))
     # run.json gives the rod's depth below the top wall's grain centres; the cell's top is its contact plane.
     rod_z = float(ds.attrs["z_top_wall"]) - rod["depth"]
     intruder = RodIntruder.below_top(geometry, rod["diameter"], z0 + geometry.depth - rod_z, rod["force"] / rod["length"])
-    label = f"{run['case']}/{run['run']}"
+    return Scene(run, geometry, intruder, float(run["cell"][0]), f"{run['case']}/{run['run']}")
+
+
+def scenes_of(runs: list[dict[str, Any]], fields: list[xr.Dataset], params: dict[str, Any]) -> list[Scene]:
+    """One scene per target depth and push, ordered by depth and push (so that each depth's
+    later pushes continue from the earlier ones)."""
+    seen, out = set(), []
+    for run, ds in zip(runs, fields, strict=True):
+        rod = run["intruder"]
+        key = (round(float(rod["depth_target_over_d"]), 6),
+               round(float(rod.get("push_over_yield", -1.0)), 6) if rod.get("force_sweep") else None)
+        if key not in seen:
+            seen.add(key)
+            out.append(scene_of(run, ds, params))
+    return sorted(out, key=lambda s: (s.target, s.rod.force_per_length))
+
+
+def solve_scene(model: str, parameters: Any, scene: Scene, cells_per_d: float,
+                warm: IntruderSpeed | None = None) -> tuple[IntruderSpeed | None, str | None]:
+    """The label's result for one scene, or None and why it was refused / not converged."""
+    where = f"{scene.depth_over_d:.2f} d" + (f", push {scene.push_over_yield:g} F_y" if scene.force_sweep else "")
     try:
-        result = intruder_speed(model, geometry, parameters, intruder, float(run["cell"][0]),
-                                GridOptions(cells_per_d=cells_per_d), case=label)
+        result = intruder_speed(model, scene.geometry, parameters, scene.rod, scene.cell_length_x,
+                                GridOptions(cells_per_d=cells_per_d), case=scene.label, warm=warm)
     except continuum.OutOfRangeError as exc:
-        return None, f"{rod['depth_over_d']:.2f} d: {exc}"
-    if not result.converged:
-        raise continuum.ConvergenceError(model, result.residual, "intruder solve did not converge", label)
-    if not np.isfinite(result.speed) or abs(result.speed) > geometry.wall_speed:
-        # A rod pushed below its yield force in the creeping zone cannot outrun the wall: such a
-        # number comes from an ill-conditioned solve (e.g. a fluidity that underflows), not physics.
-        return None, (f"{rod['depth_over_d']:.2f} d: solve failed: speed {result.speed:.3g} m/s exceeds the wall "
-                      f"speed {geometry.wall_speed:g} m/s (ill-conditioned 2D solve)")
+        return None, f"{where}: {exc}"
+    except continuum.ConvergenceError as exc:
+        return None, f"{where}: not converged: {exc}"
+    if not np.isfinite(result.speed) or abs(result.speed) > scene.geometry.wall_speed:
+        # A rod pushed below its yield force cannot outrun the wall: such a number comes from an
+        # ill-conditioned solve, not physics.
+        return None, (f"{where}: solve failed: speed {result.speed:.3g} m/s exceeds the wall speed "
+                      f"{scene.geometry.wall_speed:g} m/s")
     return result, None
 
 
+def solve_scenes(model: str, parameters: Any, scenes: list[Scene], cells_per_d: float,
+                 warm: list[IntruderSpeed | None] | None = None) -> tuple[list[IntruderSpeed | None], list[str | None]]:
+    """Every scene; without ``warm``, a scene at a depth already solved starts from that solution."""
+    results: list[IntruderSpeed | None] = []
+    reasons: list[str | None] = []
+    last: dict[float, IntruderSpeed] = {}
+    for k, scene in enumerate(scenes):
+        start = warm[k] if warm is not None else last.get(scene.target)
+        result, reason = solve_scene(model, parameters, scene, cells_per_d, start)
+        if result is None and start is not None:
+            result, reason = solve_scene(model, parameters, scene, cells_per_d, None)  # cold, once
+        if result is not None and result.state is not None:
+            last[scene.target] = result
+        results.append(result)
+        reasons.append(reason)
+    return results, reasons
+
+
+def _split(scenes: list[Scene], values: list[float]) -> tuple[list[float], list[float], list[float], list[float]]:
+    depths = [s.depth_over_d for s in scenes if not s.force_sweep]
+    pushes = [s.push_over_yield for s in scenes if s.force_sweep]
+    return (depths, [v for s, v in zip(scenes, values) if not s.force_sweep],
+            pushes, [v for s, v in zip(scenes, values) if s.force_sweep])
+
+
 def predict(model: str, params: dict[str, Any], runs: list[dict[str, Any]], fields: list[xr.Dataset],
-            cells_per_d: float = 4.0) -> xr.Dataset:
-    """The model's speed at each sheared run's depth (see module docstring); the force sweep's
-    runs (``force_sweep`` in their run.json) on a coordinate of their own, ``push_over_yield``."""
-    depths, speeds, seconds, grids, refused, bounded = [], [], [], [], [], []
-    pushes, push_speeds = [], []
+            cells_per_d: float = CELLS_PER_D) -> tuple[xr.Dataset, list[IntruderSpeed | None]]:
+    """The model's speed at each scene (module docstring): the depth sweep on ``depth_over_d``, the
+    force sweep on ``push_over_yield``; and the results (warm starts for the draws)."""
+    scenes = scenes_of(runs, fields, params)
     parameters = model_parameters(params, model)
-    for run, ds in zip(runs, fields, strict=True):
-        result, reason = run_speed(model, parameters, params, run, ds, cells_per_d)
-        if run["intruder"].get("force_sweep"):
-            # One entry per push (the first replica's run: the model sees the same geometry in each).
-            push = round(float(run["intruder"]["push_over_yield"]), 6)
-            if push not in pushes:
-                pushes.append(push)
-                push_speeds.append(result.speed if result is not None else np.nan)
-                if result is None:
-                    refused.append(f"push {push:g} of the yield force: {reason}")
-            continue
-        if result is None:
-            refused.append(reason)
-            continue
-        depths.append(run["intruder"]["depth_over_d"])
-        speeds.append(result.speed)
-        seconds.append(result.solve_seconds)
-        grids.append(result.n_grid)
-        bounded.append(bool(result.attrs.get("floor_at_rod", False)))
-    order = np.argsort(depths)
-    out = xr.Dataset(coords={"depth_over_d": ("depth_over_d", np.asarray(depths)[order],
+    t0 = time.perf_counter()
+    results, reasons = solve_scenes(model, parameters, scenes, cells_per_d)
+    refused = [r for r in reasons if r is not None]
+    speed = [r.speed if r is not None else np.nan for r in results]
+    seconds = [r.solve_seconds if r is not None else np.nan for r in results]
+    iterations = [r.iterations if r is not None else -1 for r in results]
+    bounded = [int(bool(r.attrs.get("floor_at_rod", False))) if r is not None else 0 for r in results]
+    depths, d_speed, pushes, p_speed = _split(scenes, speed)
+    _, d_sec, _, p_sec = _split(scenes, seconds)
+    _, d_it, _, p_it = _split(scenes, iterations)
+    _, d_bound, _, _ = _split(scenes, bounded)
+    out = xr.Dataset(coords={"depth_over_d": ("depth_over_d", np.asarray(depths, dtype=float),
                                               {"units": "1", "long_name": "rod axis below the top wall, in d"})})
-    out["speed"] = ("depth_over_d", np.asarray(speeds, dtype=float)[order],
+    keep = np.isfinite(np.asarray(d_speed, dtype=float))  # refused depths are listed, not written
+    out = out.isel(depth_over_d=np.nonzero(keep)[0])
+    out["speed"] = ("depth_over_d", np.asarray(d_speed, dtype=float)[keep],
                     {"units": "m s-1", "long_name": "steady rod speed along +x"})
-    out["speed_is_upper_bound"] = ("depth_over_d", np.asarray(bounded, dtype=np.int8)[order],
-                                   {"units": "1", "long_name": "1 where the NGF fluidity floor reaches the rod: "
-                                    "the speed is an upper bound (continuum/intruder/ngf2d.py FLUIDITY_FLOOR)"})
-    out["solve_seconds"] = ("depth_over_d", np.asarray(seconds, dtype=float)[order],
-                            {"units": "s", "long_name": "solve time of the scene"})
+    out["speed_is_upper_bound"] = ("depth_over_d", np.asarray(d_bound, dtype=np.int8)[keep],
+                                   {"units": "1", "long_name": "1 where the fluidity floor reaches the rod: the speed "
+                                    "is an upper bound (continuum/intruder/ngf2d.py FLUIDITY_FLOOR)"})
+    out["solve_seconds"] = ("depth_over_d", np.asarray(d_sec, dtype=float)[keep], {"units": "s", "long_name": "solve time of the scene"})
+    out["iterations"] = ("depth_over_d", np.asarray(d_it, dtype=np.int64)[keep],
+                         {"units": "1", "long_name": "fixed-point map evaluations of the 2D solve (0: no 2D solve)"})
     if pushes:
-        by = np.argsort(pushes)
-        out = out.assign_coords(push_over_yield=("push_over_yield", np.asarray(pushes)[by],
+        out = out.assign_coords(push_over_yield=("push_over_yield", np.asarray(pushes, dtype=float),
                                                  {"units": "1", "long_name": "the force sweep's push over the yield force at its depth"}))
-        out["sweep_speed"] = ("push_over_yield", np.asarray(push_speeds, dtype=float)[by],
+        out["sweep_speed"] = ("push_over_yield", np.asarray(p_speed, dtype=float),
                               {"units": "m s-1", "long_name": "steady rod speed of the force sweep (NaN: refused)"})
+        out["sweep_solve_seconds"] = ("push_over_yield", np.asarray(p_sec, dtype=float), {"units": "s", "long_name": "solve time"})
+        out["sweep_iterations"] = ("push_over_yield", np.asarray(p_it, dtype=np.int64),
+                                   {"units": "1", "long_name": "fixed-point map evaluations of the 2D solve"})
+    for label, suffix in APPROXIMATIONS.get(model, {}).items():
+        approx, _ = solve_scenes(label, parameters, scenes, cells_per_d)
+        a_speed = [r.speed if r is not None else np.nan for r in approx]
+        _, ad, _, ap = _split(scenes, a_speed)
+        out[f"speed_{suffix}"] = ("depth_over_d", np.asarray(ad, dtype=float)[keep],
+                                  {"units": "m s-1", "long_name": f"rod speed of the {label} approximation (not {model}'s score)"})
+        if pushes:
+            out[f"sweep_speed_{suffix}"] = ("push_over_yield", np.asarray(ap, dtype=float),
+                                            {"units": "m s-1", "long_name": f"force sweep: rod speed of the {label} approximation"})
+    done = [r for r in results if r is not None]
     out.attrs.update({"model": model, "case": "intruder", "refused": json.dumps(refused),
-                      "n_grid": int(max(grids)) if grids else 0,
-                      "solve_seconds": float(np.sum(seconds)) if seconds else 0.0,
-                      "converged": 1, "cells_per_d": cells_per_d})
-    return out
+                      "n_grid": int(max(r.n_grid for r in done)) if done else 0,
+                      "solve_seconds": float(time.perf_counter() - t0),
+                      "iterations": int(sum(max(r.iterations, 0) for r in done)),
+                      "converged": int(not any("not converged" in r for r in refused)),
+                      "residual": float(max((r.residual for r in done), default=0.0)),
+                      "cells_per_d": cells_per_d,
+                      "method": ",".join(sorted({r.method for r in done})),
+                      "approximations": json.dumps(APPROXIMATIONS.get(model, {}))})
+    return out, results
 
 
 def predict_draws(model: str, params: dict[str, Any], ensemble: dict[str, Any], runs: list[dict[str, Any]],
-                  fields: list[xr.Dataset], n_draws: int, cells_per_d: float = 4.0) -> xr.Dataset:
-    """The rod speed of each scene (the first run of each target depth and push) for the first
-    ``n_draws`` parameter draws (dims ``draw``, ``run``; NaN where the model refuses the depth or the
-    draw has no parameters for it) and, with the calibration's values, on a grid twice as fine per d
-    (``speed_refined``: ``u_num``)."""
-    # One scene per target depth and push (the first replica's): the replicas' scenes differ by a
-    # fraction of a grain in depth, and NGF's 2D solve costs 0.3-0.9 s a scene and draw.
-    seen, keep = set(), []
-    for run, ds in zip(runs, fields, strict=True):
-        key = (round(float(run["intruder"]["depth_target_over_d"]), 6), round(float(run["intruder"].get("push_over_yield", -1.0)), 6)
-               if run["intruder"].get("force_sweep") else None)
-        if key not in seen:
-            seen.add(key)
-            keep.append((run, ds))
-    runs, fields = [r for r, _ in keep], [f for _, f in keep]
+                  fields: list[xr.Dataset], n_draws: int, nominal: list[IntruderSpeed | None] | None = None,
+                  cells_per_d: float = CELLS_PER_D, refined_cells_per_d: float = REFINED_CELLS_PER_D) -> xr.Dataset:
+    """The rod speed of each scene for the first ``n_draws`` parameter draws (dims ``draw``,
+    ``run``; NaN where the model refuses the scene or the draw has no parameters for it), each
+    draw's solve warm-started from ``nominal`` (``predict``'s results, same scene order); and,
+    with the calibration's values, on the grid study's finer grid (``speed_refined``: u_num)."""
+    scenes = scenes_of(runs, fields, params)
     draws = ensemble["draws"][:n_draws]
-    speed = np.full((len(draws), len(runs)), np.nan)
-    refused = np.zeros((len(draws), len(runs)), dtype=np.int8)
+    speed = np.full((len(draws), len(scenes)), np.nan)
+    refused = np.zeros((len(draws), len(scenes)), dtype=np.int8)
+    iterations = np.zeros((len(draws), len(scenes)), dtype=np.int64)
+    seconds = np.zeros((len(draws), len(scenes)))
     failures: dict[int, str] = {}
+    t0 = time.perf_counter()
     for k, draw in enumerate(draws):
         if model in draw.get("failed", {}):
             failures[k] = draw["failed"][model]
             continue
         drawn = params_of_draw(params, draw)
         parameters = model_parameters(drawn, model)
-        for j, (run, ds) in enumerate(zip(runs, fields, strict=True)):
-            try:
-                result, reason = run_speed(model, parameters, drawn, run, ds, cells_per_d)
-            except continuum.ContinuumError as exc:
-                result, reason = None, f"{exc}"
+        results, reasons = solve_scenes(model, parameters, scenes, cells_per_d, nominal)
+        for j, (result, reason) in enumerate(zip(results, reasons)):
             if result is None:
                 refused[k, j] = 1
                 failures.setdefault(k, reason[:300])
             else:
                 speed[k, j] = result.speed
-    parameters = model_parameters(params, model)
-    refined = np.full(len(runs), np.nan)
-    for j, (run, ds) in enumerate(zip(runs, fields, strict=True)):
-        result, _ = run_speed(model, parameters, params, run, ds, 2.0 * cells_per_d)
-        if result is not None:
-            refined[j] = result.speed
-    labels = [r["run"] for r in runs]
+                iterations[k, j] = result.iterations
+                seconds[k, j] = result.solve_seconds
+    draws_seconds = time.perf_counter() - t0
+    t1 = time.perf_counter()
+    refined_results, _ = solve_scenes(model, model_parameters(params, model), scenes, refined_cells_per_d)
+    refined = np.array([r.speed if r is not None else np.nan for r in refined_results])
+    refined_seconds = time.perf_counter() - t1
     out = xr.Dataset(coords={"draw": ("draw", np.arange(len(draws)), {"units": "1", "long_name": "parameter draw"}),
-                             "run": ("run", labels, {"long_name": "sheared intruder run"})})
-    out["depth_over_d"] = ("run", np.array([r["intruder"]["depth_over_d"] for r in runs], dtype=float),
+                             "run": ("run", [s.run["run"] for s in scenes], {"long_name": "sheared intruder run"})})
+    out["depth_over_d"] = ("run", np.array([s.depth_over_d for s in scenes], dtype=float),
                            {"units": "1", "long_name": "rod axis below the top wall, in d"})
-    out["push_over_yield"] = ("run", np.array([r["intruder"].get("push_over_yield", np.nan) for r in runs], dtype=float),
+    out["push_over_yield"] = ("run", np.array([s.push_over_yield for s in scenes], dtype=float),
                               {"units": "1", "long_name": "push over the yield force at the rod's depth"})
-    out["force_sweep"] = ("run", np.array([int(bool(r["intruder"].get("force_sweep"))) for r in runs], dtype=np.int8),
+    out["force_sweep"] = ("run", np.array([int(s.force_sweep) for s in scenes], dtype=np.int8),
                           {"units": "1", "long_name": "1 for a run of the force sweep"})
     out["speed"] = (("draw", "run"), speed, {"units": "m s-1", "long_name": "steady rod speed along +x, per draw"})
-    out["refused"] = (("draw", "run"), refused, {"units": "1", "long_name": "1 where the model refused the depth"})
-    out["speed_refined"] = ("run", refined, {"units": "m s-1", "long_name": "calibration's values, grid twice as fine"})
+    out["refused"] = (("draw", "run"), refused, {"units": "1", "long_name": "1 where the model refused the scene"})
+    out["iterations"] = (("draw", "run"), iterations,
+                         {"units": "1", "long_name": "fixed-point map evaluations of the draw's 2D solve (warm start)"})
+    out["solve_seconds"] = (("draw", "run"), seconds, {"units": "s", "long_name": "solve time of the draw's scene"})
+    out["speed_refined"] = ("run", refined, {"units": "m s-1",
+                                             "long_name": f"calibration's values, {refined_cells_per_d:g} cells per d"})
     out.attrs.update({"model": model, "case": "intruder", "n_draws": len(draws), "cells_per_d": cells_per_d,
-                      "cells_per_d_refined": 2.0 * cells_per_d, "failures": json.dumps(failures),
-                      "draws_seed": int(ensemble.get("seed", -1))})
+                      "cells_per_d_refined": refined_cells_per_d, "failures": json.dumps(failures),
+                      "draws_seed": int(ensemble.get("seed", -1)), "draws_seconds": draws_seconds,
+                      "refined_seconds": refined_seconds, "warm_start": int(nominal is not None)})
     return out
 
 
@@ -173,7 +267,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description="Each model's intruder speed at the DEM's depths.")
     parser.add_argument("--config", required=True)
     parser.add_argument("--params", required=True, type=Path)
-    parser.add_argument("--model", required=True)
+    parser.add_argument("--model", required=True, choices=sorted(INTRUDER_MODELS))
     parser.add_argument("--runs", nargs="+", required=True, type=Path, help="run.json of the intruder runs")
     parser.add_argument("--fields", nargs="+", required=True, type=Path, help="their fields files, same order")
     parser.add_argument("--out", required=True, type=Path)
@@ -186,15 +280,17 @@ def main(argv: list[str] | None = None) -> int:
     params = json.loads(args.params.read_text())
     records = [json.loads(p.read_text()) for p in args.runs]
     pairs = [(r, open_fields(f)) for r, f in zip(records, args.fields, strict=True) if not r["intruder"]["control"]]
-    result = predict(args.model, params, [r for r, _ in pairs], [f for _, f in pairs])
+    t0 = time.perf_counter()
+    result, nominal = predict(args.model, params, [r for r, _ in pairs], [f for _, f in pairs])
     result.attrs.update(provenance_attrs(config))
     if args.draws is not None:
         n_draws = int((config.get("models") or {}).get("intruder_draws", DEFAULT_INTRUDER_DRAWS))
         ensemble = predict_draws(args.model, params, json.loads(args.draws.read_text()), [r for r, _ in pairs],
-                                 [f for _, f in pairs], n_draws)
+                                 [f for _, f in pairs], n_draws, nominal)
         ensemble.attrs.update(provenance_attrs(config))
         atomic.write_netcdf(ensemble, args.draws_out)
     atomic.write_netcdf(result, args.out)
     print(f"{args.model}: speeds {result.speed.values} m/s at depths {result.depth_over_d.values} d; "
-          f"refused {json.loads(result.attrs['refused'])}")
+          + (f"force sweep {result.sweep_speed.values} m/s at {result.push_over_yield.values} F_y; " if "sweep_speed" in result else "")
+          + f"refused {json.loads(result.attrs['refused'])}; {time.perf_counter() - t0:.1f} s")
     return 0

@@ -3,6 +3,8 @@ depth dependence, the local models' yield check, grid convergence. Development p
 d = 2 mm, depth 20 d, L_x = 16 d, P_wall = 200 Pa, V = 0.1 m/s, rod D = 3 d."""
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 import xarray as xr
@@ -19,57 +21,106 @@ GEO = PlanarShear(depth=20 * D, wall_speed=0.1, wall_pressure=200.0, gravity=9.8
 LX = 16 * D
 MU_I = MuIParameters(0.3819, 0.6435, 0.279)
 NGF = NGFParameters(MU_I, A=0.48, nu=0.6)
-GRID = GridOptions(cells_per_d=4)
+GRID = GridOptions(cells_per_d=3)
+GEO_R = replace(GEO, normal_stress_ratio=1.058)
 
 
 def rod(depth_d: float, force: float) -> RodIntruder:
     return RodIntruder.below_top(GEO, 3 * D, depth_d * D, force)
 
 
-@pytest.mark.parametrize("coupling", ["coupled", "frozen"])
-def test_no_intruder_reproduces_planar_solution(coupling: str) -> None:
-    out = solve_2d(GEO, NGF, LX, None, GRID, coupling=coupling)
+def test_no_rod_ngf_2d_reproduces_its_1d_solution() -> None:
+    """Without the rod the coupled 2D NGF solve is the 1D planar problem: u_x independent of x and
+    equal to the 1D solution (resolved on 4001 nodes) within 1e-3 V at 3 cells per d (second-order
+    fluidity and velocity: the 1D solve on the same 60 nodes differs by ~5e-4 V)."""
+    out = solve_2d(GEO_R, NGF, LX, None, GRID, coupling="coupled")
     ux = out["fields"].u_x.values
-    assert np.ptp(ux, axis=1).max() <= 1e-9 * GEO.wall_speed  # no x dependence
-    ref = continuum.solve("ngf", GEO, NGF, n_grid=4001)
+    assert np.ptp(ux, axis=1).max() <= 1e-9 * GEO_R.wall_speed  # no x dependence
+    ref = continuum.solve("ngf", GEO_R, NGF, n_grid=4001)
     u1 = np.interp(out["fields"].z.values, ref.z.values, ref.u_x.values)
-    assert np.max(np.abs(ux.mean(axis=1) - u1)) / GEO.wall_speed <= 1e-3
+    assert np.max(np.abs(ux.mean(axis=1) - u1)) / GEO_R.wall_speed <= 1e-3
     assert out["tau_top"] == pytest.approx(ref.attrs["tau"], rel=1e-3)
+    assert all(v < 1.0 for k, v in out["residuals"].items() if k.endswith("_over_tol"))
 
 
-def test_speed_is_affine_in_force_with_positive_mobility() -> None:
-    speeds = [intruder_speed("ngf", GEO, NGF, rod(7, f), LX, GRID).speed for f in (0.0, 0.25, 0.5)]
+@pytest.mark.parametrize("ratio", [1.0, 1.3])
+def test_pressure_convention_is_the_1d_one(ratio: float) -> None:
+    """p = sigma_zz / normal_stress_ratio in 2D as in 1D: without the rod the 2D pressure at every
+    height is the 1D solve's (hydrostatic, so to round-off), the top wall carries P_wall as
+    sigma_zz, and the wall shear stress follows the 1D one for either ratio (with the raw sigma_zz
+    as p, tau would scale as 1 / ratio against the 1D's)."""
+    geo = replace(GEO, normal_stress_ratio=ratio)
+    out = solve_2d(geo, NGF, LX, None, GRID, coupling="coupled")
+    ref = continuum.solve("ngf", geo, NGF, n_grid=4001)
+    z = out["fields"].z.values
+    p2 = out["fields"].p.values
+    assert np.max(np.abs(p2 - np.interp(z, ref.z.values, ref.p.values)[:, None])) <= 1e-9 * geo.wall_pressure
+    # sigma_zz at the top wall (linear extrapolation of the top two rows) is the load
+    top = 1.5 * p2[-1].mean() - 0.5 * p2[-2].mean()
+    assert top * ratio == pytest.approx(geo.wall_pressure, rel=1e-9)
+    assert out["tau_top"] == pytest.approx(ref.attrs["tau"], rel=1e-3)
+    frozen = solve_2d(geo, NGF, LX, None, GRID, coupling="frozen")
+    assert np.max(np.abs(frozen["fields"].p.values - p2)) <= 1e-9 * geo.wall_pressure
+
+
+def test_frozen_speed_is_affine_in_force_with_positive_mobility() -> None:
+    speeds = [intruder_speed("ngf_frozen", GEO, NGF, rod(7, f), LX, GRID).speed for f in (0.0, 0.25, 0.5)]
     assert speeds[2] - speeds[1] == pytest.approx(speeds[1] - speeds[0], rel=1e-8)
     assert speeds[1] > speeds[0] > 0.0  # drift with the creep plus F / K
 
 
-def test_mobility_follows_far_field_fluidity_with_depth() -> None:
-    ref = continuum.solve("ngf", GEO, NGF, n_grid=4001)
-    results = {k: intruder_speed("ngf", GEO, NGF, rod(k, 0.5), LX, GRID) for k in (6, 9)}
-    assert results[9].speed < results[6].speed
-    mob_ratio = results[6].mobility / results[9].mobility
+# The default's intruder scene (config/config.yaml): bed 21.6 d between the contact planes, cell
+# 12 d, rod 3 d with its axis (k - 0.5) d under the top contact plane for a rod k d under the wall
+# grains' centres, load 200 Pa, V = 0.1 m/s; the default run's calibration (issue 43).
+DEFAULT_GEO = PlanarShear(depth=21.6 * D, wall_speed=0.1, wall_pressure=200.0, gravity=9.81, d=D, rho_s=2500.0,
+                          normal_stress_ratio=1.058)
+DEFAULT_NGF = NGFParameters(MuIParameters(0.374, 1.023, 0.637), A=0.327, nu=0.587)
 
-    def g_over_p(k: float) -> float:
-        z = GEO.depth - k * D
-        return np.interp(z, ref.z.values, ref.fluidity.values) / np.interp(z, ref.z.values, ref.p.values)
 
-    # eta = p / g: the mobility falls with depth like the far-field g / p (within a factor 2)
-    assert 0.5 < mob_ratio / (g_over_p(6) / g_over_p(9)) < 2.0
+def yield_force(depth_d: float) -> float:
+    """F_y = 1.5 p D per length, p the hydrostatic vertical stress (pipeline/dem/intruder_run.py)."""
+    return 1.5 * (200.0 + 0.6 * 2500.0 * 9.81 * depth_d * D) * 3 * D
+
+
+def test_coupled_ngf_converges_at_every_push_of_the_default() -> None:
+    """Every scene of the default (depths 5, 7, 9 d at half the 5 d yield force; 0.3, 0.6, 0.9 of
+    the yield force at 7 d) converges, each push at 7 d continued from the one below as the
+    pipeline does. 2 cells per d keeps the test under 20 s: the iteration's robustness is what is
+    tested (3 and 4 cells per d are the benchmark's). Laws: every unknown within its tolerance on
+    a plain step; no tension; U rises with F at 7 d and stays under V; deeper rods are slower."""
+    grid = GridOptions(cells_per_d=2)
+    speeds: dict[tuple[float, float], float] = {}
+    warm = None
+    scenes = [(5, 0.5 * yield_force(5)), (9, 0.5 * yield_force(5)), (7, 0.3 * yield_force(7)),
+              (7, 0.5 * yield_force(5)), (7, 0.6 * yield_force(7)), (7, 0.9 * yield_force(7))]
+    for depth, force in scenes:
+        r = RodIntruder.below_top(DEFAULT_GEO, 3 * D, (depth - 0.5) * D, force)
+        res = intruder_speed("ngf", DEFAULT_GEO, DEFAULT_NGF, r, 12 * D, grid, warm=warm if depth == 7 else None)
+        if depth == 7:
+            warm = res
+        assert res.converged and res.method == "2d"
+        assert all(v < 1.0 for k, v in res.attrs.items() if k.startswith("residual_") and k.endswith("_over_tol"))
+        assert res.attrs["p_min"] > 0.0
+        speeds[(depth, force)] = res.speed
+    sweep = [v for (depth, _), v in sorted(speeds.items()) if depth == 7]
+    assert all(b > a for a, b in zip(sweep, sweep[1:])) and sweep[-1] < DEFAULT_GEO.wall_speed
+    f5 = 0.5 * yield_force(5)
+    assert speeds[(5, f5)] > speeds[(7, f5)] > speeds[(9, f5)] > 0.0
 
 
 def test_local_mu_i_zero_below_yield_and_slides_the_layer_above() -> None:
     params = LocalMuIParameters(MU_I, SolidFractionLaw(0.6, 0.3))
-    below = intruder_speed("local_mu_i", GEO, params, rod(7, 0.5), LX)
+    below = intruder_speed("local_mu_i_layer_sliding", GEO, params, rod(7, 0.5), LX)
     assert below.speed == 0.0 and below.yield_force > 0.5
     layer = below.attrs["yield_force_layer"]
-    above = intruder_speed("local_mu_i", GEO, params, rod(7, 1.2 * layer), LX)
+    above = intruder_speed("local_mu_i_layer_sliding", GEO, params, rod(7, 1.2 * layer), LX)
     # Above F_l the layer under the rod flows: the rod moves, slower than the top wall, and the
     # top wall needs less stress to keep its speed (part of the layer is driven by the rod).
     assert above.method == "layer_sliding"
     assert 0.0 < above.speed < GEO.wall_speed
     assert above.attrs["tau_top"] < above.attrs["tau_top_without_rod"]
     with pytest.raises(OutOfRangeError):
-        intruder_speed("local_mu_i", GEO, params, rod(7, 1.01 * below.attrs["yield_force_bearing"]), LX)
+        intruder_speed("local_mu_i_layer_sliding", GEO, params, rod(7, 1.01 * below.attrs["yield_force_bearing"]), LX)
 
 
 def test_layer_sliding_without_gravity_matches_the_plug_solution() -> None:
@@ -97,19 +148,12 @@ def test_layer_sliding_without_gravity_matches_the_plug_solution() -> None:
     assert speed == pytest.approx(exact, rel=5e-4)
 
 
-def test_grid_convergence_of_speed() -> None:
-    speeds = [intruder_speed("ngf", GEO, NGF, rod(7, 0.5), LX, GridOptions(cells_per_d=c)).speed
-              for c in (3, 4, 6)]
-    assert abs(speeds[1] - speeds[2]) < abs(speeds[0] - speeds[2])
-    assert abs(speeds[1] / speeds[2] - 1.0) < 0.02
-
-
-def test_small_A_solves_with_the_fluidity_floor_and_a_small_residual() -> None:
+def test_frozen_small_A_solves_with_the_fluidity_floor_and_a_small_residual() -> None:
     """With A = 0.01 the far-field fluidity underflows (1e-255 of its peak); the floored solve
     still meets the momentum balance, and the rod, deep in fluidity-floor material, creeps at
     most at the floor's scale, far below the A = 0.48 speed."""
-    small = intruder_speed("ngf", GEO, NGFParameters(MU_I, A=0.01, nu=0.6), rod(7, 0.5), LX, GRID)
-    glass = intruder_speed("ngf", GEO, NGF, rod(7, 0.5), LX, GRID)
+    small = intruder_speed("ngf_frozen", GEO, NGFParameters(MU_I, A=0.01, nu=0.6), rod(7, 0.5), LX, GRID)
+    glass = intruder_speed("ngf_frozen", GEO, NGF, rod(7, 0.5), LX, GRID)
     assert small.converged and small.residual < 1e-6
     assert small.attrs["floor_at_rod"]
     assert 0.0 <= small.speed < 1e-4 * glass.speed

@@ -1,0 +1,68 @@
+"""pipeline.models.intruder: one scene per target depth and push, NGF's coupled speed with the
+ngf_frozen approximation beside it, draws warm-started from the nominal solution, the grid study.
+A small bed (12 d, cell 8 d, 2 cells per d; 3 for the grid study) keeps the 2D solves cheap."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from pipeline.models.intruder import predict, predict_draws, scenes_of
+
+D = 0.002
+MU = {"mu_s": 0.374, "mu_2": 1.023, "I_0": 0.637, "nu_c": 0.587, "a": 0.141}
+PARAMS = {"local": {k: {"value": v} for k, v in MU.items()}, "critical_state": {},
+          "nonlocal": {"ngf": {"A": {"value": 0.327}}}, "normal_stresses": {"sigma_zz_over_p": {"value": 1.058}}}
+
+
+def run(name: str, depth: float, force: float, sweep: bool = False, push: float = 0.5) -> dict:
+    rod = {"depth": depth * D, "diameter": 3 * D, "force": force * 4 * D, "length": 4 * D, "depth_over_d": depth,
+           "depth_target_over_d": depth, "control": False, "force_sweep": sweep, "push_over_yield": push}
+    return {"case": "intruder", "run": name, "cell": [8 * D, 4 * D], "intruder": rod}
+
+
+def fields() -> xr.Dataset:
+    return xr.Dataset(attrs={"z_bottom_contact_plane": 0.0, "z_top_contact_plane": 12 * D, "z_top_wall": 12.5 * D,
+                             "wall_speed": 0.1, "wall_pressure": 200.0, "gravity": 9.81, "d": D, "rho_s": 2500.0})
+
+
+RUNS = [run("D4-r1", 4, 0.8), run("D4-F0.3-r1", 4, 0.5, True, 0.3), run("D4-F0.6-r1", 4, 1.0, True, 0.6),
+        run("D4-F0.6-r2", 4, 1.0, True, 0.6)]
+
+
+def test_one_scene_per_depth_and_push_ordered_by_force() -> None:
+    scenes = scenes_of(RUNS, [fields()] * len(RUNS), PARAMS)
+    assert [s.run["run"] for s in scenes] == ["D4-F0.3-r1", "D4-r1", "D4-F0.6-r1"]
+
+
+@pytest.fixture(scope="module")
+def solved() -> tuple[xr.Dataset, list]:
+    return predict("ngf", PARAMS, RUNS, [fields()] * len(RUNS), cells_per_d=2.0)
+
+
+def test_ngf_file_has_the_coupled_speeds_and_the_frozen_beside_them(solved) -> None:
+    out, results = solved
+    assert out.attrs["converged"] == 1 and json.loads(out.attrs["refused"]) == []
+    assert out.speed.attrs["units"] == "m s-1" and out.sizes["depth_over_d"] == 1
+    assert list(out.push_over_yield.values) == [0.3, 0.6]
+    # The push raises U faster than the frozen fluidity's linear response (issue 43's table).
+    sweep, frozen = out.sweep_speed.values, out.sweep_speed_frozen.values
+    assert 0.0 < sweep[0] < sweep[1] < 0.1 and 0.0 < frozen[0] < frozen[1]
+    assert sweep[1] / sweep[0] > frozen[1] / frozen[0]
+    assert all(r is not None and r.method == "2d" for r in results)
+
+
+def test_a_draw_equal_to_the_calibration_reproduces_the_nominal_speed(solved) -> None:
+    """Warm-started from the nominal solution, a draw holding the calibration's own values is the
+    same problem: its speed is the nominal one within the rod-speed tolerance (1e-3), in fewer
+    map evaluations than the nominal cold solve."""
+    out, results = solved
+    draw = {"values": dict(MU), "sigma_zz_over_p": 1.058, "nonlocal": {"ngf": {"A": 0.327}}}
+    ens = predict_draws("ngf", PARAMS, {"draws": [draw], "seed": 1}, RUNS, [fields()] * len(RUNS), 1, results,
+                        cells_per_d=2.0, refined_cells_per_d=3.0)
+    nominal = np.array([r.speed for r in results])
+    assert np.allclose(ens.speed.values[0], nominal, rtol=2e-3)
+    assert np.all(ens.iterations.values[0] < np.array([r.iterations for r in results]))
+    assert np.all(np.isfinite(ens.speed_refined.values)) and ens.attrs["warm_start"] == 1
