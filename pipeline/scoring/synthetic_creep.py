@@ -12,10 +12,11 @@ wall speed, replicas, shear before and during the production):
 
 - **Stresses.** sigma_xz is the top wall's shear stress at every depth (no body force along x);
   sigma_zz = P_wall + rho_s nu g depth; mu = |sigma_xz| / p with p = sigma_zz / ``SIGMA_ZZ_OVER_P``
-  (the creep's measured 1.11-1.16, docs/validation.md). The wall's stress ratio is set so that
-  mu = mu_s ``YIELD_DEPTH_OVER_D`` below the top under the calibration case's load (the heavy
-  bed's band is then deeper, as its load is twice). Each replica's wall stress is offset by
-  ``Noise.tau_rel`` (the replicas' scatter of the wall friction), and its creep follows its own mu.
+  (the creep's measured 1.11-1.16, docs/validation.md). Each bed's wall stress ratio puts
+  mu = mu_s ``YIELD_DEPTH_OVER_D`` below its top (shear_gravity_heavy/r3 of the 2026-12-04
+  default: 2.2 d). Each replica's wall stress is offset by ``Noise.tau_rel`` (the replicas'
+  scatter of the wall friction), and its creep follows its own smooth mu; the measured mu also
+  wanders with the packing's frozen lateral stresses (``Noise.mu_structure_rel``).
 - **The band.** Above yield ln u falls linearly from ln V to ln(``U_YIELD_OVER_V`` V) at the
   yield depth; below, the law. C is set per beta so that the calibration case's creep is at
   ``U_REFERENCE_OVER_V`` V ``REFERENCE_DEPTH_OVER_D`` below the top (the default's 2e-4 V at
@@ -94,16 +95,28 @@ class Noise:
       decade over 2 d, beside the grains' own sampling (the stated structure error);
     - ``tau_rel``: the replicas' wall friction scatter (0.005 in mu of about 0.45);
     - ``mu_point_err``: the precision target of mu (0.005), per point;
+    - ``mu_structure_rel``, ``mu_structure_length_over_d``: the measured mu's frozen wander about
+      the smooth |sigma_xz| / sigma_zz x 1.11 (p, a third of the trace, follows the packing's
+      lateral stresses; sigma_zz is smooth to 0.15 %): 6.9 % rms, correlation 0.5 at 1 d (a
+      Gaussian kernel of 0.6 d), in the default of 2026-12-04, shear_gravity_heavy/r3 at 3-16 d;
+      the creep follows the smooth mu;
+    - ``diffusivity_over_rate``: a shear-driven diffusion D / (shear rate d^2), off by default;
+      about 3 with ``cage_over_d`` 0.01 and no ``hop_over_d`` matches that run's u_x_disp errors
+      at 2-10 d within a factor 2 (its deep floor, 2-3e-5 V at 14-15 d after 7 strain, is 3 times
+      lower than this noise's);
     - the ageing: docs/dem.md, "The deep creep ages" (-0.49 to -0.65 below 5 d, -0.07 above);
     - ``blocks``: the coarse-graining's batch-means blocks.
     ``benchmarks/creep_law_sign.py default ROOT`` prints a DEM root's profiles beside these."""
 
     cage_over_d: float = 0.25
     hop_over_d: float = 0.02
+    diffusivity_over_rate: float = 0.0
     packing_decades: float = 0.05
     packing_length_over_d: float = 2.0
     tau_rel: float = 0.01
     mu_point_err: float = 0.004
+    mu_structure_rel: float = 0.07
+    mu_structure_length_over_d: float = 0.6
     ageing_exponent: float = -0.5
     ageing_depths_over_d: tuple[float, float] = (4.0, 6.0)
     blocks: int = 5
@@ -224,7 +237,7 @@ def replica_fields(bed: Bed, law: Law, scene: Scene, rng: np.random.Generator, r
     height = bed_height(bed, mat)
     z = np.arange(0.0, height + 1e-12 * d, GRID_SPACING_OVER_D * d)
     depth = height - z
-    ratio = calibration_wall_ratio(scene.beds[0], mat, law.mu_s) * (1.0 + noise.tau_rel * rng.standard_normal())
+    ratio = calibration_wall_ratio(bed, mat, law.mu_s) * (1.0 + noise.tau_rel * rng.standard_normal())
     mu_true = stress_ratio(depth, bed, mat, law.mu_s, ratio)
     order = np.argsort(depth)
     ln_u = np.empty_like(depth)
@@ -246,9 +259,13 @@ def replica_fields(bed: Bed, law: Law, scene: Scene, rng: np.random.Generator, r
     drift = u_g[:, None] * middle * seconds_per_strain * ((edges[None, 1:] / middle) ** a1
                                                           - (edges[None, :-1] / middle) ** a1) / a1
     cage = noise.cage_over_d * d * rng.standard_normal((bed.n_grains, noise.blocks + 1))
-    hops = noise.hop_over_d * d * math.sqrt(bed.production_strain / noise.blocks) * rng.standard_normal(
-        (bed.n_grains, noise.blocks))
     block_seconds = bed.production_strain / noise.blocks * seconds_per_strain
+    # Irreversible hops: a rate-independent part (hop_over_d d per square-root strain) and a
+    # shear-driven diffusion, D = diffusivity_over_rate x shear rate x d^2 (its error ~ sqrt(u)).
+    rate_g = np.interp(zg, z, np.abs(np.gradient(bed.wall_speed * np.exp(np.clip(ln_u, -600.0, None)), z)))
+    hop_var = ((noise.hop_over_d * d) ** 2 * bed.production_strain / noise.blocks
+               + 2.0 * noise.diffusivity_over_rate * rate_g * d**2 * block_seconds)
+    hops = np.sqrt(hop_var)[:, None] * rng.standard_normal((bed.n_grains, noise.blocks))
     v_blocks = (drift + np.diff(cage, axis=1) + hops) / block_seconds           # (grains, blocks)
     width = KERNEL_WIDTH_OVER_D * d
     offsets = np.clip((z[:, None] - zg[None, :]) / width, -3.0, 3.0)
@@ -265,6 +282,9 @@ def replica_fields(bed: Bed, law: Law, scene: Scene, rng: np.random.Generator, r
     u_err_structure = np.sqrt((weight**2 * (v_grains[None, :] - u_disp[:, None]) ** 2).sum(axis=1))
     u_err = np.fmax(u_err_time, u_err_structure)
     mu_meas = mu_true + _smooth_noise(rng, z, width, noise.mu_point_err)
+    # The packing's frozen lateral stresses: p (a third of the trace) wanders about sigma_zz / 1.12
+    # while sigma_xz stays constant, so the measured mu does too; the creep follows the smooth mu.
+    mu_meas = mu_meas * (1.0 + _smooth_noise(rng, z, noise.mu_structure_length_over_d * d, noise.mu_structure_rel))
     p = bed.wall_pressure + mat.rho_s * SOLID_FRACTION * bed.gravity * depth
     shear_rate = np.abs(np.gradient(bed.wall_speed * np.exp(np.clip(ln_u, -600.0, None)), z))
     inertial = shear_rate * d / np.sqrt(p / SIGMA_ZZ_OVER_P / mat.rho_s)
