@@ -75,6 +75,7 @@ class YieldRodSolver(RodSolver):
         self._lu = None
         self.factorisations = 0
         self.last_limit_load: dict[str, float] = {}  # set when ``solve`` computed the limit load
+        self._force_fraction = 1.0
 
     # ---- the model's law ------------------------------------------------------------------
     @property
@@ -144,7 +145,7 @@ class YieldRodSolver(RodSolver):
 
     def _evaluate(self, y: np.ndarray, disc: Discretisation, eps_rel: float, jacobian: bool) -> dict:
         geo = self.geometry
-        force = None if self.rod is None else self.rod.force_per_length
+        force = None if self.rod is None else self.rod.force_per_length * self._force_fraction
         return equations(y, disc, self.law, eps_rel * geo.wall_speed / geo.d, geo.wall_speed, force,
                          self.driven_speed, geo.normal_stress_ratio, P_FLOOR * self.top_pressure, geo.rho_s,
                          Scales(geo.wall_speed, geo.wall_pressure, geo.d), jacobian=jacobian)
@@ -230,10 +231,31 @@ class YieldRodSolver(RodSolver):
             y = self._initial(planar, disc)
         by_eps: dict[float, float] = {}
         iterations, res, step = 0, np.nan, np.nan
-        for eps_rel in stages:
-            y, its, res, step = self._newton(y, disc, eps_rel)
+        y_last = y
+        for k, eps_rel in enumerate(stages):
+            try:
+                y, its, res, step = self._newton(y, disc, eps_rel)
+            except RunawayError:
+                raise
+            except ConvergenceError:
+                if k > 0:
+                    # a stage too far from the last: halve the step in log eps (twice at most)
+                    y, its, res, step = self._refine_stage(y_last, disc, stages[k - 1], eps_rel, 2)
+                    iterations += its
+                    by_eps[eps_rel] = float(y[-1]) if disc.has_rod else float("nan")
+                    y_last = y
+                    continue
+                if not disc.has_rod or self.driven_speed is not None:
+                    raise
+                # a push far from the planar start: reach it in steps of a quarter of F
+                its = 0
+                for fraction in (0.25, 0.5, 0.75, 1.0):
+                    self._force_fraction = fraction
+                    y, n, res, step = self._newton(y, disc, eps_rel)
+                    its += n
             iterations += its
             by_eps[eps_rel] = float(y[-1]) if disc.has_rod else float("nan")
+            y_last = y
         ev = self._evaluate(y, disc, stages[-1], False)
         flow = self._flow(y, ev, disc)
         p_min = float(flow.p[self.material].min())
@@ -268,6 +290,28 @@ class YieldRodSolver(RodSolver):
         return RodSolution(self.model, speed, True, iterations, residuals, time.perf_counter() - t0,
                            self.grid.n_cells, flow, state, self._dataset(flow, {}), planar, planar_seconds, attrs)
 
+    def _refine_stage(self, y: np.ndarray, disc: Discretisation, eps_from: float, eps_to: float,
+                      depth: int) -> tuple[np.ndarray, int, float, float]:
+        """Reach ``eps_to`` from a solution at ``eps_from`` through sqrt(eps_from eps_to)."""
+        mid = float(np.sqrt(eps_from * eps_to))
+        try:
+            y_mid, n1, _, _ = self._newton(y, disc, mid)
+        except RunawayError:
+            raise
+        except ConvergenceError:
+            if depth <= 1:
+                raise
+            y_mid, n1, _, _ = self._refine_stage(y, disc, eps_from, mid, depth - 1)
+        try:
+            y_end, n2, res, step = self._newton(y_mid, disc, eps_to)
+        except RunawayError:
+            raise
+        except ConvergenceError:
+            if depth <= 1:
+                raise
+            y_end, n2, res, step = self._refine_stage(y_mid, disc, mid, eps_to, depth - 1)
+        return y_end, n1 + n2, res, step
+
     def limit_load(self, speeds_over_v: tuple[float, ...] = (3.0, 10.0)) -> dict[str, float]:
         """The force per length (N m-1) the material resists the rod with when the rod is driven
         at each of ``speeds_over_v`` x V (the rate-independent laws: the limit load once the rod
@@ -288,8 +332,8 @@ class YieldRodSolver(RodSolver):
         try:
             return self.solve_regularised(warm)
         except ConvergenceError as exc:
-            if self.rod is None or self.driven_speed is not None:
-                raise
+            if self.rod is None or self.driven_speed is not None or self.law.mu_i is not None:
+                raise  # (mu(I) is rate-dependent: no limit load; its failures are failures)
             loads = self.limit_load()
             self.last_limit_load = loads
             f_lim = max(loads.values())
