@@ -250,3 +250,67 @@ def test_a_fill_poured_by_the_other_engine_is_refused(tmp_path: Path) -> None:
         else:
             run._adopt_fill(source)
             assert (run.run_dir / "fill.restart").exists()
+
+
+SLIDING_PAIR = """
+units si
+atom_style sphere
+atom_modify map array
+boundary p p f
+newton on
+comm_modify vel yes
+region box block 0 0.02 0 0.02 0 0.02 units box
+create_box 1 box
+create_atoms 1 single 0.008 0.01 0.01 units box
+create_atoms 1 single {x2!r} 0.01 0.01 units box
+set group all diameter 0.002
+set group all density 2500
+velocity all set 0 0 0
+set atom 1 vx {vn!r} vy {vt!r}
+set atom 2 vx {minus_vn!r}
+variable poisson_ratio string "0.3"
+variable youngs_modulus string "2e7"
+variable restitution string "{e!r}"
+variable friction string "0.5"
+include {materials}
+fix 1 all nve/sphere
+timestep 1e-8
+dump particles all custom {every} particles.dump id x y z vx vy vz radius mass fx fy fz
+run {steps}
+"""
+
+
+def _run_pair(tmp_path: Path, **values: float) -> object:
+    tmp_path.mkdir(parents=True, exist_ok=True)
+    (tmp_path / "in.test").write_text(SLIDING_PAIR.format(materials=REPO / "lammps_inputs" / "materials.in", **values))
+    proc = subprocess.run([str(lmp_executable()), "-in", "in.test", "-log", "log.test", "-screen", "none"], cwd=tmp_path,
+                          env=lammps_environment(), capture_output=True, text=True, check=False)
+    assert proc.returncode == 0, (tmp_path / "log.test").read_text()[-2000:]
+    return read_dump(tmp_path / "particles.dump")
+
+
+def test_lammps_tangential_spring_and_sliding_limit_are_liggghts(tmp_path: Path) -> None:
+    """The two terms the first-step test leaves out. Without damping (e = 1) a contact sheared at
+    v_t for 200 steps holds the spring force k_t v_t t with k_t = 8 G* sqrt(R* delta), G* =
+    E / (4 (2 - nu) (1 + nu)) (LIGGGHTS' tangential history), to 1 % (the grains' slight
+    acceleration over the steps). Sheared fast (v_t = 0.5 m/s, e = 0.5) the contact slides at
+    |F_t| = mu F_n with F_n the whole normal force, damping included, as LIGGGHTS' limit
+    (``xmu * fabs(sidata.Fn)`` in its tangential_model_history.h)."""
+    E, nu, r_star, overlap, dt = 2.0e7, 0.3, 0.0005, 4e-6, 1e-8
+    x2 = 0.008 + 0.002 - overlap
+    spring = _run_pair(tmp_path / "spring", x2=x2, vn=0.0, minus_vn=0.0, vt=0.001, e=1.0, every=200, steps=200)
+    f_t = spring.rows(1)[0, spring.index("fy")]
+    k_t = 8.0 * E / (4.0 * (2.0 - nu) * (1.0 + nu)) * np.sqrt(r_star * overlap)
+    np.testing.assert_allclose(-f_t, k_t * 0.001 * 200 * dt, rtol=0.01)
+    # Approaching at 0.05 m/s each: the normal damping doubles the normal force.
+    slide = _run_pair(tmp_path / "slide", x2=x2, vn=0.05, minus_vn=-0.05, vt=0.5, e=0.5, every=100, steps=100)
+    row = slide.rows(1)
+    x = row[:, [slide.index(a) for a in "xyz"]]
+    f = row[0, [slide.index(a) for a in ("fx", "fy", "fz")]]
+    n = (x[1] - x[0]) / np.linalg.norm(x[1] - x[0])
+    f_n = -float(f @ n)
+    f_t = float(np.linalg.norm(f + f_n * n))
+    now = 0.002 - float(np.linalg.norm(x[1] - x[0]))
+    elastic = 4.0 / 3.0 * E / (2.0 * (1.0 - nu**2)) * np.sqrt(r_star) * now**1.5
+    assert f_n > 1.5 * elastic
+    np.testing.assert_allclose(f_t, 0.5 * f_n, rtol=1e-3)
