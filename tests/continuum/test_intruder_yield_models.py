@@ -25,8 +25,9 @@ LX = 12 * D
 CS = CriticalStateParameters(0.374, CriticalStateLine(0.5868, 0.005, 300.0))
 LOCAL = LocalMuIParameters(MuIParameters(0.374, 1.023, 0.637), SolidFractionLaw(0.5868, 0.141))
 VA = VolumeAveragedParameters(CS, 1.165 * D)
-#: The cell without the rod is x-independent: a narrow periodic cell (2 d) is the same problem.
-NARROW = 2 * D
+#: The cell without the rod is x-independent: a narrow periodic cell (d / 2, four columns) is the
+#: same problem.
+NARROW = 0.5 * D
 
 
 def no_rod_error(solver_type: type, params: object, cells_per_d: float, regularisations: tuple[float, ...]):
