@@ -36,7 +36,7 @@ import numpy as np
 import pandas as pd
 
 from pipeline.common.config import run_physics, shared_fill_of, fill_physics
-from pipeline.dem import precision
+from pipeline.dem import force_balance, precision
 from pipeline.dem.engines import DEFAULT_ENGINE, Engine, engine_name
 from pipeline.dem.liggghts_log import DEMRunError
 from pipeline.dem.steady_state import band_speeds, creep_settled, drift_test
@@ -235,6 +235,7 @@ class ChunkedRun:
             "series_every": plan["series_every"],
             "series_file": f"series/{stage}.txt",
             "pairsum_file": f"series/pairsum_{stage}.txt",
+            "pairforce_file": force_balance.pair_force_file(stage),
             "thermo_every": plan["chunk_steps"] // 4,
             "chunk_steps": plan["chunk_steps"],
             "dump_every": plan["dump_every"] if dumped else 0,

@@ -25,6 +25,7 @@ from pipeline.dem.contact_scaling import ContactDesign, design_contacts
 from pipeline.dem.engines import CONTACT_COLUMNS, DELTA_COLUMN, make_engine  # noqa: F401
 # Re-exported: other modules, tests and benchmarks reach the LIGGGHTS templates and launch from here.
 from pipeline.dem import liggghts_render as render  # noqa: F401
+from pipeline.dem import force_balance
 from pipeline.dem.engines.liggghts import Launcher, _mpi_environment, run_liggghts  # noqa: F401
 from pipeline.dem.lifecycle import (FILL_FILES, FILL_RECORD, OPTIONAL_FILL_FILES, START_RESTART,  # noqa: F401
                                     STEADY_CREEP_BANDS, ChunkedRun, read_settled, settled_timestep)
@@ -384,6 +385,8 @@ class PlanarShearRun(ChunkedRun):
             # The top wall's mean push over its load across the production, and its damping's drag.
             "production_load_balance": self.load_balance(prod_series),
             "pair_force_sum": self.pair_force_sum(float(prod_series["ftop_x"].mean())),
+            # Action = reaction over all contacts, every sample at round-off (pipeline/dem/force_balance.py).
+            "pair_force_check": force_balance.record(self.run_dir, [c["stage"] for c in production], float(prod_series["ftop_x"].mean())),
             "max_overlap_over_d": float(self.series()["max_overlap"].max() / self.mat["d"]),
             "particle_dumps": [c["dumps"][0] for c in production],
             "contact_dumps": [c["dumps"][1] for c in production],
