@@ -7,13 +7,12 @@ top-wall grains), ``ke`` (J, translational kinetic energy of the flowing grains)
 (m, largest contact overlap at the sample).
 
 The pair-force sums (``series/pairsum_*.txt``, planar shear, same samples): ``step``, ``time`` (s),
-``fsum_x``, ``fsum_y``, ``fsum_z`` (N), the forces summed over every atom. No body force acts along x
-or y, so there this is the sum of all contact forces: zero if every pair obeys action = reaction.
-Along z the atoms' forces also hold the grains' weight and the top wall's load (and its damping,
-zero on average), so the contact part is ``fsum_z`` + weight + load. LIGGGHTS 3.8 keeps two
-tangential histories for a contact across a periodic boundary (newton off, which its granular pair
-style requires) and they can differ: the sums are not zero (docs/dem.md). Measured on the reduced
-runs: the z part below 1 % of load + weight in most, -3.1 % and +8 % in two.
+``fsum_x``, ``fsum_y``, ``fsum_z`` (N), time averages. Along x and y the sum of all pair forces,
+zero if every pair obeys action = reaction. Along z the forces summed over every atom: the pair
+forces less the grains' weight and the top wall's load (and its damping, zero on average), so the
+contact part is ``fsum_z`` + weight + load. Until issue 44 two LIGGGHTS 3.8 defects made the contact
+sums non-zero (docs/dem.md, "Action and reaction"); the instantaneous sums and their round-off test
+are ``series/pairforce_*.txt`` (pipeline/dem/force_balance.py).
 """
 from __future__ import annotations
 
