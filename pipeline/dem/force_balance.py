@@ -13,7 +13,7 @@ they did not: a ``fix rigid`` wall's ghost grains carried the body mass truncate
 (0 below 1 kg), so the copies damped differently, and the fill's ``create_atoms`` after a run left
 some contacts with one copy's tangential history lost (docs/dem.md, "Action and reaction"). Both
 gave sums of 1e-4 to 1e-3 of the summed |f| (measured on default beds); with both removed the sums
-stay below 2e-13 of it.
+stay below 4e-13 of it (reduced planar and intruder runs, one and two MPI ranks).
 
 Tolerance: each sum rounds at about ``eps * sum|f|`` per added force (eps = 2.2e-16), at most
 ``N eps sum|f|`` over N atoms (1e-13 at N = 500), and the two copies of a cross-face contact see
