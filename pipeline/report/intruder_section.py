@@ -24,10 +24,11 @@ def intruder_section(root: Path, config: dict[str, Any], figures: Any) -> str:
              "<p class='note'>A rod along y (3 d across) pushed along +x by a constant force below its yield force, "
              "held at its depth, in the creeping zone of shear with gravity. Control: the same push with the "
              "top wall at rest. Arrested runs (speed within 2 standard errors of zero, or moved under 0.1 d) "
-             "are drawn at the bottom, not as speeds. Critical state predicts zero below its yield force; local "
-             "mu(I) predicts zero below the layer-sliding force and, above it, the speed of the layer the rod "
-             "slides (rod smeared over the cell); NGF is solved in 2D (hollow markers: upper bound set by the "
-             "fluidity floor); Cosserat is not solved in 2D (docs/intruder.md).</p>"]
+             "are drawn at the bottom, not as speeds. Each model's speed is its own 2D solution around the rod "
+             "where it has a 2D solver (NGF: the fluidity equation coupled to the flow around the rod; the "
+             "method column of the model files says which), with the band of its parameter draws (2.5-97.5 %); "
+             "ngf_frozen (dashed) is an approximation, NGF's far-field fluidity kept around the rod, never NGF's "
+             "score (hollow markers: upper bound set by the fluidity floor; docs/intruder.md).</p>"]
     for case in intruder_cases(config):
         every = [json.loads((root / "dem" / c / r / "run.json").read_text()) for c, r in dem_runs(config) if c == case]
         # The depth sweep here; the force sweep's runs (other pushes at one depth) in their own figure.
@@ -56,6 +57,12 @@ def intruder_section(root: Path, config: dict[str, Any], figures: Any) -> str:
             speeds = np.where(sol.speed.values > 0, sol.speed.values, floor)
             if sol.sizes["depth_over_d"]:
                 ax.plot(sol.depth_over_d.values, speeds, color=color, ls=ls, marker="x", label=model)
+                band = draws_band(root / "model_draws" / case / f"{model}.nc", sweep=False)
+                if band is not None:
+                    ax.fill_between(band[0], band[1], band[2], color=color, alpha=0.15, lw=0)
+                if "speed_frozen" in sol:
+                    ax.plot(sol.depth_over_d.values, sol.speed_frozen.values, color=color, ls="--", marker="+",
+                            label=f"{model}_frozen (approximation)")
                 if "speed_is_upper_bound" in sol and sol.speed_is_upper_bound.values.any():
                     bound = sol.speed_is_upper_bound.values.astype(bool)
                     ax.plot(sol.depth_over_d.values[bound], speeds[bound], "o", color=color, mfc="none", ms=9)
@@ -72,7 +79,7 @@ def intruder_section(root: Path, config: dict[str, Any], figures: Any) -> str:
         parts.append(rod_frame_figure(root, case, runs, figures))
         parts.append(table_html(pd.DataFrame(rows)))
         if any(r["intruder"].get("force_sweep") for r in every):
-            parts.append(force_sweep_figure(root, figures))
+            parts.append(force_sweep_figure(root, figures, case))
         if refused:
             parts.append(table_html(pd.DataFrame(refused)))
     return "\n".join(parts)
@@ -106,9 +113,28 @@ def rod_frame_figure(root: Path, case: str, runs: list[dict[str, Any]], figures:
 
 
 
-def force_sweep_figure(root: Path, figures: Any) -> str:
-    """U against F / F_y at the sweep's depth: DEM (replica means, 2 standard errors) and every model,
-    with the slope table (validation/force_sweep.csv)."""
+def draws_band(path: Path, sweep: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """(x, 2.5 %, 97.5 %) of a model's speed over its parameter draws (model_draws/<case>/<model>.nc):
+    x the depth / d of the depth sweep's scenes, or F / F_y of the force sweep's; None without draws."""
+    if not path.exists():
+        return None
+    with xr.open_dataset(path) as ens:
+        if "force_sweep" not in ens or ens.sizes.get("draw", 0) < 2:
+            return None
+        pick = ens.force_sweep.values.astype(bool) == sweep
+        x = (ens.push_over_yield if sweep else ens.depth_over_d).values[pick]
+        speeds = ens.speed.values[:, pick]
+    if not x.size or not np.isfinite(speeds).any(axis=0).all():
+        return None
+    order = np.argsort(x)
+    lo, hi = np.nanpercentile(speeds, [2.5, 97.5], axis=0)
+    return x[order], lo[order], hi[order]
+
+
+def force_sweep_figure(root: Path, figures: Any, case: str = "intruder") -> str:
+    """U against F / F_y at the sweep's depth: DEM (replica means, 2 standard errors) and every model
+    with the band of its parameter draws, ngf_frozen beside NGF, and the slope table
+    (validation/force_sweep.csv)."""
     table = pd.read_csv(root / "validation" / "force_sweep.csv")
     fig, ax = plt.subplots(figsize=(6.5, 4.5))
     dem = table[(table.source == "dem") & table.push_over_yield.notna()]
@@ -118,6 +144,15 @@ def force_sweep_figure(root: Path, figures: Any) -> str:
         good = sub[sub.speed > 0]
         if len(good):
             ax.plot(good.push_over_yield, good.speed, color=color, ls=ls, marker="x", label=model)
+        band = draws_band(root / "model_draws" / case / f"{model}.nc", sweep=True)
+        if band is not None:
+            ax.fill_between(band[0], band[1], band[2], color=color, alpha=0.15, lw=0)
+        path = root / "models" / case / f"{model}.nc"
+        if path.exists():
+            with xr.open_dataset(path) as sol:
+                if "sweep_speed_frozen" in sol:
+                    ax.plot(sol.push_over_yield.values, sol.sweep_speed_frozen.values, color=color, ls="--",
+                            marker="+", label=f"{model}_frozen (approximation)")
     ax.set_yscale("log")
     ax.set_xlabel("push / yield force at the rod's depth, F / F_y (-)")
     ax.set_ylabel("rod speed (m/s), log axis")
@@ -126,7 +161,8 @@ def force_sweep_figure(root: Path, figures: Any) -> str:
                                                                            "replicas", "resolved") if c in table])
     slopes = slopes.astype(object).where(pd.notna(slopes), "n/a")
     return (figures.add("intruder_force", fig, "The rod's speed against its push at one depth (the force sweep, held "
-                        "out): DEM replica means with 2 standard errors (the replicas' scatter), and each model's speed. "
+                        "out): DEM replica means with 2 standard errors (the replicas' scatter), each model's speed with "
+                        "the 2.5-97.5 % band of its parameter draws, and ngf_frozen (dashed, an approximation). "
                         "Zero speeds (rod at rest) are not drawn.")
             + "<p class='note'>Slope of log10 U against F / F_y, each model's against the DEM's: the slope excludes "
               "a model where their difference exceeds its 95 % interval (u_val: the DEM replicas' and the "
