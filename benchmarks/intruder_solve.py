@@ -19,7 +19,7 @@ calibration (docs/validation.md: mu_s 0.374 +- 0.0028, mu_2 1.023 +- 0.045, I_0 
 nu_c 0.587, NGF A 0.327 +- 0.055); draws independent normal with those errors, seed 43.
 
 Run: ``nice -n 5 python benchmarks/intruder_solve.py [--draws 8] [--cold-draws 2] [--models ngf ngf_frozen]
-[--no-grid]``. CPU seconds (time.process_time) are reported, the machine being shared.
+[--draws-cells 3] [--no-grid]``. CPU seconds (time.process_time) are reported, the machine being shared.
 """
 from __future__ import annotations
 
@@ -80,6 +80,8 @@ def main() -> None:
     ap.add_argument("--draws", type=int, default=8, help="draws solved warm per scene")
     ap.add_argument("--cold-draws", type=int, default=2, help="of those, also solved cold")
     ap.add_argument("--pipeline-draws", type=int, default=32, help="draws the pipeline solves (models.intruder_draws)")
+    ap.add_argument("--draws-cells", type=float, default=3.0,
+                    help="grid of the draws (cells per d); the nominal solve they start from is re-solved there")
     ap.add_argument("--no-grid", action="store_true")
     args = ap.parse_args()
     rng = np.random.default_rng(43)
@@ -101,14 +103,18 @@ def main() -> None:
                 print(f"{model:<12} {scene[0]:>5g} {push:>6.2f} failed: {err}")
                 continue
             speeds, w_it, w_s, c_it, c_s = [], [], [], [], []
+            start = res
+            if args.draws_cells != 3.0:
+                start, sec_d, _ = timed(model, NOMINAL, scene, args.draws_cells)
+                nominal_s += sec_d
             for k, values in enumerate(draws):
-                w, s, _ = timed(model, values, scene, 3.0, warm=res if solver_model else None)
+                w, s, _ = timed(model, values, scene, args.draws_cells, warm=start if solver_model else None)
                 if w is not None:
                     speeds.append(w.speed)
                     w_it.append(w.iterations)
                     w_s.append(s)
                 if solver_model and k < args.cold_draws:
-                    c, s, _ = timed(model, values, scene, 3.0)
+                    c, s, _ = timed(model, values, scene, args.draws_cells)
                     if c is not None:
                         c_it.append(c.iterations)
                         c_s.append(s)

@@ -13,8 +13,8 @@ whose 2D solve does not converge is not written as a number: it is listed in ``r
 
 Cost (issue 43, item 7): a scene at a depth already solved starts from that solution (the force
 sweep is a continuation in F); each parameter draw starts from the nominal solution of its
-scene. 2D solves run at ``CELLS_PER_D``; the grid study (``speed_refined``: u_num) at
-``REFINED_CELLS_PER_D``.
+scene. The nominal 2D solves run at ``CELLS_PER_D``, the draws (u_input) at
+``DRAWS_CELLS_PER_D``, the grid study (``speed_refined``: u_num) at ``REFINED_CELLS_PER_D``.
 
 Usage: ``python -m pipeline.models.intruder --config C --params params.json --model ngf
 --runs RESULTS/dem/intruder/D5-r1/run.json ... --fields RESULTS/fields/intruder/D5-r1.nc ... --out F.nc``
@@ -49,6 +49,11 @@ DEFAULT_INTRUDER_DRAWS = 32
 CELLS_PER_D = 3.0
 #: The grid study's finer grid (u_num = its difference from CELLS_PER_D).
 REFINED_CELLS_PER_D = 4.0
+#: The parameter draws' grid. u_input is the spread of the draws' speeds, not their level, and the
+#: grid's error is nearly common to every draw (benchmarks/intruder_solve.py compares the spread at
+#: 2 and 3 cells per d); 2 cells per d costs a third of 3 per solve, which the 32 draws of 6 scenes
+#: need to fit the stage's 5 minutes (issue 43, item 7).
+DRAWS_CELLS_PER_D = 2.0
 #: Labels solved beside a model and written into its file (variables ``<name>_<suffix>``).
 APPROXIMATIONS = {"ngf": {"ngf_frozen": "frozen"}}
 
@@ -208,12 +213,17 @@ def predict(model: str, params: dict[str, Any], runs: list[dict[str, Any]], fiel
 
 def predict_draws(model: str, params: dict[str, Any], ensemble: dict[str, Any], runs: list[dict[str, Any]],
                   fields: list[xr.Dataset], n_draws: int, nominal: list[IntruderSpeed | None] | None = None,
-                  cells_per_d: float = CELLS_PER_D, refined_cells_per_d: float = REFINED_CELLS_PER_D) -> xr.Dataset:
+                  cells_per_d: float = CELLS_PER_D, refined_cells_per_d: float = REFINED_CELLS_PER_D,
+                  draws_cells_per_d: float = DRAWS_CELLS_PER_D) -> xr.Dataset:
     """The rod speed of each scene for the first ``n_draws`` parameter draws (dims ``draw``,
-    ``run``; NaN where the model refuses the scene or the draw has no parameters for it), each
-    draw's solve warm-started from ``nominal`` (``predict``'s results, same scene order); and,
-    with the calibration's values, on the grid study's finer grid (``speed_refined``: u_num)."""
+    ``run``; NaN where the model refuses the scene or the draw has no parameters for it) on
+    ``draws_cells_per_d``, each draw's solve warm-started from the nominal parameters' solution of
+    its scene (``nominal``, ``predict``'s results on ``cells_per_d``, or solved here on the draws'
+    grid when that differs); and, with the calibration's values, on the grid study's finer grid
+    (``speed_refined``: u_num)."""
     scenes = scenes_of(runs, fields, params)
+    if draws_cells_per_d != cells_per_d or nominal is None:
+        nominal, _ = solve_scenes(model, model_parameters(params, model), scenes, draws_cells_per_d)
     draws = ensemble["draws"][:n_draws]
     speed = np.full((len(draws), len(scenes)), np.nan)
     refused = np.zeros((len(draws), len(scenes)), dtype=np.int8)
@@ -227,7 +237,7 @@ def predict_draws(model: str, params: dict[str, Any], ensemble: dict[str, Any], 
             continue
         drawn = params_of_draw(params, draw)
         parameters = model_parameters(drawn, model)
-        results, reasons = solve_scenes(model, parameters, scenes, cells_per_d, nominal)
+        results, reasons = solve_scenes(model, parameters, scenes, draws_cells_per_d, nominal)
         for j, (result, reason) in enumerate(zip(results, reasons)):
             if result is None:
                 refused[k, j] = 1
@@ -256,7 +266,8 @@ def predict_draws(model: str, params: dict[str, Any], ensemble: dict[str, Any], 
     out["solve_seconds"] = (("draw", "run"), seconds, {"units": "s", "long_name": "solve time of the draw's scene"})
     out["speed_refined"] = ("run", refined, {"units": "m s-1",
                                              "long_name": f"calibration's values, {refined_cells_per_d:g} cells per d"})
-    out.attrs.update({"model": model, "case": "intruder", "n_draws": len(draws), "cells_per_d": cells_per_d,
+    out.attrs.update({"model": model, "case": "intruder", "n_draws": len(draws), "cells_per_d": draws_cells_per_d,
+                      "cells_per_d_nominal": cells_per_d,
                       "cells_per_d_refined": refined_cells_per_d, "failures": json.dumps(failures),
                       "draws_seed": int(ensemble.get("seed", -1)), "draws_seconds": draws_seconds,
                       "refined_seconds": refined_seconds, "warm_start": int(nominal is not None)})

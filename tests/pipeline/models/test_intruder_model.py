@@ -61,7 +61,7 @@ def test_a_draw_equal_to_the_calibration_reproduces_the_nominal_speed(solved) ->
     out, results = solved
     draw = {"values": dict(MU), "sigma_zz_over_p": 1.058, "nonlocal": {"ngf": {"A": 0.327}}}
     ens = predict_draws("ngf", PARAMS, {"draws": [draw], "seed": 1}, RUNS, [fields()] * len(RUNS), 1, results,
-                        cells_per_d=2.0, refined_cells_per_d=3.0)
+                        cells_per_d=2.0, refined_cells_per_d=3.0, draws_cells_per_d=2.0)
     nominal = np.array([r.speed for r in results])
     assert np.allclose(ens.speed.values[0], nominal, rtol=2e-3)
     assert np.all(ens.iterations.values[0] < np.array([r.iterations for r in results]))
