@@ -217,7 +217,7 @@ class YieldRodSolver(RodSolver):
     def solve_regularised(self, warm: dict[str, np.ndarray] | None = None) -> RodSolution:
         """Converged solution at the last regularisation, with the rod speed at every stage.
         ``warm`` is a previous solution's ``state`` on the same grid (the continuation then starts
-        at the last regularisation)."""
+        at the last two regularisations, whose speeds give the limit)."""
         t0 = time.perf_counter()
         t1 = time.perf_counter()
         planar = self.planar_solution()
@@ -226,7 +226,7 @@ class YieldRodSolver(RodSolver):
         stages = self.regularisations
         if warm is not None and set(warm) >= {"u", "w", "pi", "U"} and warm["u"].size == self.grid.n_cells:
             y = np.concatenate([warm["u"], warm["w"], warm["pi"], warm["U"][:1] if disc.has_rod else []])
-            stages = stages[-1:]
+            stages = stages[-2:]  # two stages: the limit is read from their U
         else:
             y = self._initial(planar, disc)
         by_eps: dict[float, float] = {}
