@@ -105,27 +105,36 @@ def coverage(args: argparse.Namespace) -> int:
     for beta in args.betas:
         law = synthetic.calibrated_law(beta, args.mu_s, scene)
         got: dict[str, list[tuple[float, float, float, int, float]]] = {rule: [] for rule in RULES}
+        failed: dict[str, list[str]] = {rule: [] for rule in RULES}
         start = time.perf_counter()
         for k in range(args.n):
             sets = synthetic.replica_set(scene, law, np.random.default_rng(args.seed + k))
             for rule in RULES:
                 windows, scale, _ = scaled_windows(sets, args.mu_s, rule)
-                fit = fit_law(windows.mu.values, windows.slope.values * d, windows.slope_err.values * d,
-                              windows.mu_err.values, args.mu_s)
-                jk = jackknife_error(windows, args.mu_s, d) if args.jackknife else math.nan
+                try:
+                    fit = fit_law(windows.mu.values, windows.slope.values * d, windows.slope_err.values * d,
+                                  windows.mu_err.values, args.mu_s)
+                    jk = jackknife_error(windows, args.mu_s, d) if args.jackknife else math.nan
+                except (DecayLengthError, RuntimeError, ValueError, np.linalg.LinAlgError) as exc:
+                    failed[rule].append(f"seed {args.seed + k}: {exc}")
+                    continue
                 got[rule].append((fit["beta"], fit["beta_err"], scale, len(windows), jk))
         # The jackknife's interval: Student's t with one fewer degree of freedom than runs.
         t95 = float(stats.t.ppf(0.975, sum(b.replicas for b in scene.beds) - 1))
         for rule, rows in got.items():
             a = np.asarray(rows)
+            n = len(a)
             pull = (a[:, 0] - beta) / a[:, 1]
             c68, c95 = float(np.mean(np.abs(pull) < 1.0)), float(np.mean(np.abs(pull) < 1.959964))
             print(f"{beta:+6.2f} {rule:>12} {a[:, 0].mean():+7.3f} {a[:, 0].mean() - beta:+7.3f} "
-                  f"{a[:, 0].std(ddof=1) / math.sqrt(args.n):6.3f} {a[:, 0].std(ddof=1):6.3f} {a[:, 1].mean():6.3f} "
+                  f"{a[:, 0].std(ddof=1) / math.sqrt(n):6.3f} {a[:, 0].std(ddof=1):6.3f} {a[:, 1].mean():6.3f} "
                   f"{a[:, 0].std(ddof=1) / a[:, 1].mean():6.2f} {c68:6.2f} {c95:6.2f} "
-                  f"{math.sqrt(0.95 * 0.05 / args.n):5.3f} {a[:, 3].mean():7.0f} {a[:, 2].mean():6.2f}"
+                  f"{math.sqrt(0.95 * 0.05 / n):5.3f} {a[:, 3].mean():7.0f} {a[:, 2].mean():6.2f}"
                   + (f" {a[:, 4].mean():6.3f} {np.mean(np.abs(a[:, 0] - beta) < t95 * a[:, 4]):6.2f}"
                      if args.jackknife else ""))
+        for rule, notes in failed.items():
+            if notes:
+                print(f"       {rule}: {len(notes)} fits failed ({notes[0]})")
         print(f"       ({time.perf_counter() - start:.0f} s)", flush=True)
     return 0
 
