@@ -271,7 +271,9 @@ def scaled_windows(sources: list[tuple[Path | xr.Dataset, str]], mu_s: float, ru
     errors times the replicas' verdict (:func:`replica_error_scale`, judged on the windows that
     bound their slope: one that does not would compare as z = 0 whatever the scatter), with
     ``xi_err``; returns the table, the scale and its number of pairs."""
-    dem = pd.concat([dem_rows(f, mu_s, role, rule) for f, role in sources], ignore_index=True)
+    frames = [dem_rows(f, mu_s, role, rule) for f, role in sources]
+    # A run without a window adds nothing (and an empty frame would turn every column to objects).
+    dem = pd.concat([f for f in frames if len(f)] or frames[:1], ignore_index=True)
     scale, pairs = replica_error_scale(dem[dem.slope_bounded.astype(bool)])
     dem["slope_err"] = dem.slope_err * scale
     dem["xi_err"] = np.where(dem.slope > 0, dem.slope_err / np.where(dem.slope > 0, dem.slope, 1.0) ** 2, np.inf)
