@@ -54,8 +54,11 @@ REFINED_CELLS_PER_D = 4.0
 #: 2 and 3 cells per d); 2 cells per d costs a third of 3 per solve, which the 32 draws of 6 scenes
 #: need to fit the stage's 5 minutes (issue 43, item 7).
 DRAWS_CELLS_PER_D = 2.0
-#: Labels solved beside a model and written into its file (variables ``<name>_<suffix>``).
-APPROXIMATIONS = {"ngf": {"ngf_frozen": "frozen"}}
+#: Labels solved beside a model and written into its file (variables ``speed_<suffix>``,
+#: ``sweep_speed_<suffix>``): the registry's approximations of it (``ngf_frozen`` -> ``frozen``).
+APPROXIMATIONS = {model: {label: label.removeprefix(model + "_") for label, entry in INTRUDER_MODELS.items()
+                          if entry.approximates == model}
+                  for model in sorted({entry.approximates for entry in INTRUDER_MODELS.values() if entry.approximates})}
 
 
 @dataclass

@@ -27,8 +27,9 @@ def intruder_section(root: Path, config: dict[str, Any], figures: Any) -> str:
              "are drawn at the bottom, not as speeds. Each model's speed is its own 2D solution around the rod "
              "where it has a 2D solver (NGF: the fluidity equation coupled to the flow around the rod; the "
              "method column of the model files says which), with the band of its parameter draws (2.5-97.5 %); "
-             "ngf_frozen (dashed) is an approximation, NGF's far-field fluidity kept around the rod, never NGF's "
-             "score (hollow markers: upper bound set by the fluidity floor; docs/intruder.md).</p>"]
+             "dashed: the registry's approximations of a model (ngf_frozen: NGF's far-field fluidity kept around "
+             "the rod; the 1D estimates of the other models), never its score (hollow markers: upper bound set "
+             "by the fluidity floor; docs/intruder.md).</p>"]
     for case in intruder_cases(config):
         every = [json.loads((root / "dem" / c / r / "run.json").read_text()) for c, r in dem_runs(config) if c == case]
         # The depth sweep here; the force sweep's runs (other pushes at one depth) in their own figure.
@@ -60,9 +61,10 @@ def intruder_section(root: Path, config: dict[str, Any], figures: Any) -> str:
                 band = draws_band(root / "model_draws" / case / f"{model}.nc", sweep=False)
                 if band is not None:
                     ax.fill_between(band[0], band[1], band[2], color=color, alpha=0.15, lw=0)
-                if "speed_frozen" in sol:
-                    ax.plot(sol.depth_over_d.values, sol.speed_frozen.values, color=color, ls="--", marker="+",
-                            label=f"{model}_frozen (approximation)")
+                for label, suffix in json.loads(sol.attrs.get("approximations", "{}")).items():
+                    if f"speed_{suffix}" in sol:
+                        ax.plot(sol.depth_over_d.values, sol[f"speed_{suffix}"].values, color=color, ls="--",
+                                marker="+", label=f"{label} (approximation)")
                 if "speed_is_upper_bound" in sol and sol.speed_is_upper_bound.values.any():
                     bound = sol.speed_is_upper_bound.values.astype(bool)
                     ax.plot(sol.depth_over_d.values[bound], speeds[bound], "o", color=color, mfc="none", ms=9)
@@ -150,9 +152,10 @@ def force_sweep_figure(root: Path, figures: Any, case: str = "intruder") -> str:
         path = root / "models" / case / f"{model}.nc"
         if path.exists():
             with xr.open_dataset(path) as sol:
-                if "sweep_speed_frozen" in sol:
-                    ax.plot(sol.push_over_yield.values, sol.sweep_speed_frozen.values, color=color, ls="--",
-                            marker="+", label=f"{model}_frozen (approximation)")
+                for label, suffix in json.loads(sol.attrs.get("approximations", "{}")).items():
+                    if f"sweep_speed_{suffix}" in sol:
+                        ax.plot(sol.push_over_yield.values, sol[f"sweep_speed_{suffix}"].values, color=color,
+                                ls="--", marker="+", label=f"{label} (approximation)")
     ax.set_yscale("log")
     ax.set_xlabel("push / yield force at the rod's depth, F / F_y (-)")
     ax.set_ylabel("rod speed (m/s), log axis")
