@@ -171,6 +171,9 @@ def test_a_rheometer_replica_shares_one_fill_and_replicas_do_not(config: dict) -
 
 def test_an_intruder_control_starts_from_its_sheared_twin_s_fill(config: dict) -> None:
     intruder = config["cases"]["intruder"]
+    # The design without a shared sheared bed (cases.intruder.shared_bed false; the bed's own test is
+    # tests/pipeline/dem/test_intruder_run.py).
+    intruder["shared_bed"] = False
     shallowest = min(intruder["depths_below_top"])
     fills = [f"fill-D{shallowest:g}-r{k + 1}" for k in range(intruder["replicas"])]
     assert shared_fill_ids("intruder", intruder) == fills
