@@ -49,11 +49,13 @@ DEFAULT_INTRUDER_DRAWS = 32
 CELLS_PER_D = 3.0
 #: The grid study's finer grid (u_num = its difference from CELLS_PER_D).
 REFINED_CELLS_PER_D = 4.0
-#: The parameter draws' grid. u_input is the spread of the draws' speeds, not their level, and the
-#: grid's error is nearly common to every draw (benchmarks/intruder_solve.py compares the spread at
-#: 2 and 3 cells per d); 2 cells per d costs a third of 3 per solve, which the 32 draws of 6 scenes
-#: need to fit the stage's 5 minutes (issue 43, item 7).
-DRAWS_CELLS_PER_D = 2.0
+#: The parameter draws' grid (u_input is the spread of the draws' speeds). Measured on the default's
+#: six scenes with 32 draws (2026-12-04): at 2 cells per d, 9 of the 32 draws at 9 d and one at
+#: 7 d / 0.3 F_y did not converge in 400 map evaluations (warm or cold), and the failures cost
+#: most of the stage's 454 CPU s; at 3 cells per d every draw of the benchmark converged (8 per
+#: scene, warm 34 evaluations, 2.1 CPU s). So the draws share the nominal grid and start from
+#: the nominal solutions themselves.
+DRAWS_CELLS_PER_D = CELLS_PER_D
 #: Labels solved beside a model and written into its file (variables ``speed_<suffix>``,
 #: ``sweep_speed_<suffix>``): the registry's approximations of it (``ngf_frozen`` -> ``frozen``).
 APPROXIMATIONS = {model: {label: label.removeprefix(model + "_") for label, entry in INTRUDER_MODELS.items()
