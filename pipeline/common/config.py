@@ -62,6 +62,13 @@ def _check_consistency(config: dict[str, Any], source: str) -> None:
             f"{source}: material.design_overlap ({mat['design_overlap']}) must be below "
             f"material.max_overlap ({mat['max_overlap']})"
         )
+    if config["dem"].get("engine") == "lammps":
+        rods = [name for name, case in config["cases"].items() if case["geometry"] == "intruder"]
+        if rods:
+            # The rod's stages exist as LIGGGHTS templates only: running them under another engine
+            # than the config names would mix two engines in one case.
+            raise ConfigError(f"{source}: dem.engine: lammps runs planar cases only, and cases.{rods[0]} "
+                              f"is an intruder case (no LAMMPS templates): remove it or use dem.engine: liggghts")
     for name, case in config["cases"].items():
         pressure = working_pressure(config, name)
         if pressure > mat["design_pressure"]:

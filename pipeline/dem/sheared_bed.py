@@ -84,9 +84,8 @@ def bed_config(config: dict[str, Any], case_name: str) -> dict[str, Any]:
     case = config["cases"][case_name]
     planar = {k: v for k, v in case.items() if k not in ROD_KEYS}
     planar |= {"geometry": "planar_shear", "n_grains": int(case["n_grains"]) + displaced_grains(config, case)}
-    # The rods' stages are LIGGGHTS': so is the bed they restart from, whatever engine the planar cases use.
-    dem = config["dem"] | ({"engine": "liggghts"} if "engine" in config["dem"] else {})
-    return {**config, "dem": dem, "cases": {case_name: planar}}
+    # An intruder case runs under LIGGGHTS only (the config check refuses dem.engine: lammps with one).
+    return {**config, "cases": {case_name: planar}}
 
 
 class ShearedBed(PlanarShearRun):

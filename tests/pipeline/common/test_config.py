@@ -223,3 +223,17 @@ def test_a_cases_min_shear_strain_is_its_own_runs_only() -> None:
     run = dem_runs(config)[0]
     assert run_config(plain, *run) == run_config(config, *run)
     assert run_config(plain, "shear_gravity_heavy", "r1") != run_config(config, "shear_gravity_heavy", "r1")
+
+
+def test_lammps_engine_with_an_intruder_case_is_refused(config: dict) -> None:
+    # The rod's stages are LIGGGHTS templates only: the config check refuses the mix rather than
+    # running the intruder silently under another engine than the config names.
+    bad = copy.deepcopy(config)
+    bad["dem"]["engine"] = "lammps"
+    assert any(case["geometry"] == "intruder" for case in bad["cases"].values())
+    with pytest.raises(ConfigError, match=r"my.yaml: dem.engine: lammps runs planar cases only, and cases.intruder"):
+        validate_config(bad, "my.yaml")
+    planar_only = copy.deepcopy(bad)
+    planar_only["cases"] = {k: v for k, v in bad["cases"].items() if v["geometry"] != "intruder"}
+    planar_only["calibration"] = bad["calibration"]
+    validate_config(planar_only, "my.yaml")
