@@ -34,6 +34,7 @@ import xarray as xr
 import continuum
 from continuum.intruder import INTRUDER_MODELS, GridOptions, IntruderSpeed, RodIntruder, intruder_speed
 from continuum.geometry import PlanarShear
+from continuum.intruder.yield2d import YieldRodSolver
 from pipeline.common.formats import open_fields
 from pipeline.common import atomic
 from pipeline.calibration.parameter_sets import model_parameters, normal_stress_ratio, params_of_draw
@@ -279,6 +280,17 @@ def predict_draws(model: str, params: dict[str, Any], ensemble: dict[str, Any], 
     return out
 
 
+def intruder_draws(config: dict[str, Any], model: str) -> int:
+    """Parameter draws solved for ``model``: ``models.intruder_plastic_draws`` for the 2D plastic
+    solvers (regularised yield-stress solves, tens of CPU seconds each: measured 2026-12-04),
+    ``models.intruder_draws`` for the others (NGF: seconds a solve)."""
+    models = config.get("models") or {}
+    solver = INTRUDER_MODELS[model].solver
+    if solver is not None and issubclass(solver, YieldRodSolver) and "intruder_plastic_draws" in models:
+        return int(models["intruder_plastic_draws"])
+    return int(models.get("intruder_draws", DEFAULT_INTRUDER_DRAWS))
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description="Each model's intruder speed at the DEM's depths.")
     parser.add_argument("--config", required=True)
@@ -300,7 +312,7 @@ def main(argv: list[str] | None = None) -> int:
     result, nominal = predict(args.model, params, [r for r, _ in pairs], [f for _, f in pairs])
     result.attrs.update(provenance_attrs(config))
     if args.draws is not None:
-        n_draws = int((config.get("models") or {}).get("intruder_draws", DEFAULT_INTRUDER_DRAWS))
+        n_draws = intruder_draws(config, args.model)
         ensemble = predict_draws(args.model, params, json.loads(args.draws.read_text()), [r for r, _ in pairs],
                                  [f for _, f in pairs], n_draws, nominal)
         ensemble.attrs.update(provenance_attrs(config))

@@ -66,3 +66,20 @@ def test_a_draw_equal_to_the_calibration_reproduces_the_nominal_speed(solved) ->
     assert np.allclose(ens.speed.values[0], nominal, rtol=2e-3)
     assert np.all(ens.iterations.values[0] < np.array([r.iterations for r in results]))
     assert np.all(np.isfinite(ens.speed_refined.values)) and ens.attrs["warm_start"] == 1
+
+
+def test_plastic_solvers_take_their_own_draw_count() -> None:
+    # The 2D plastic solves cost tens of CPU seconds each, NGF's seconds: the config sets their
+    # draw counts apart (models.intruder_plastic_draws), and a config without the key gives every
+    # model models.intruder_draws.
+    from pipeline.common.config import load_config
+    from pipeline.models.intruder import intruder_draws
+    config = load_config("config/ci.yaml")
+    models = config["models"]
+    assert models["intruder_plastic_draws"] != models["intruder_draws"]
+    for plastic in ("local_mu_i", "critical_state", "volume_averaged"):
+        assert intruder_draws(config, plastic) == models["intruder_plastic_draws"]
+    for other in ("ngf", "ngf_frozen", "local_mu_i_layer_sliding"):
+        assert intruder_draws(config, other) == models["intruder_draws"]
+    del models["intruder_plastic_draws"]
+    assert intruder_draws(config, "critical_state") == models["intruder_draws"]
