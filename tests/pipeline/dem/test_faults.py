@@ -130,10 +130,11 @@ def test_rerun_resumes_from_the_restart_files(runs: dict[str, Any]) -> None:
 def test_resumed_run_gives_the_same_numbers_bitwise(runs: dict[str, Any]) -> None:
     whole, killed = runs["whole"], runs["killed"]
     files = sorted(p.relative_to(whole) for p in [*whole.glob("series/*.txt"), *whole.glob("dumps/*.dump")])
-    # Per chunk a wall series and its pair-force sum; per production chunk two dumps, and every
-    # chunk is one (the shear stage was the steady window).
+    # Per chunk a wall series, its pair-force sum and the action-reaction check's samples
+    # (pairforce_<stage>.txt, issue 44); per production chunk two dumps, and every chunk is one
+    # (the shear stage was the steady window).
     n_chunks = len(json.loads((whole / "state.json").read_text())["chunks"])
-    assert len(files) == 2 * n_chunks + 2 * n_chunks
+    assert len(files) == 3 * n_chunks + 2 * n_chunks
     for rel in files:
         # Same seed, same chunk boundaries: LIGGGHTS continues bitwise from its restart files.
         assert (whole / rel).read_bytes() == (killed / rel).read_bytes(), rel
