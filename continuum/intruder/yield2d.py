@@ -290,26 +290,25 @@ class YieldRodSolver(RodSolver):
         return RodSolution(self.model, speed, True, iterations, residuals, time.perf_counter() - t0,
                            self.grid.n_cells, flow, state, self._dataset(flow, {}), planar, planar_seconds, attrs)
 
+    def _reach(self, y: np.ndarray, disc: Discretisation, eps_from: float, eps_to: float,
+               depth: int) -> tuple[np.ndarray, int, float, float]:
+        """Newton at ``eps_to`` from a solution at ``eps_from``; on a ConvergenceError (not a runaway
+        rod) through the geometric midpoint, ``depth`` times at most."""
+        try:
+            return self._newton(y, disc, eps_to)
+        except RunawayError:
+            raise
+        except ConvergenceError:
+            if depth <= 1:
+                raise
+            return self._refine_stage(y, disc, eps_from, eps_to, depth - 1)
+
     def _refine_stage(self, y: np.ndarray, disc: Discretisation, eps_from: float, eps_to: float,
                       depth: int) -> tuple[np.ndarray, int, float, float]:
         """Reach ``eps_to`` from a solution at ``eps_from`` through sqrt(eps_from eps_to)."""
         mid = float(np.sqrt(eps_from * eps_to))
-        try:
-            y_mid, n1, _, _ = self._newton(y, disc, mid)
-        except RunawayError:
-            raise
-        except ConvergenceError:
-            if depth <= 1:
-                raise
-            y_mid, n1, _, _ = self._refine_stage(y, disc, eps_from, mid, depth - 1)
-        try:
-            y_end, n2, res, step = self._newton(y_mid, disc, eps_to)
-        except RunawayError:
-            raise
-        except ConvergenceError:
-            if depth <= 1:
-                raise
-            y_end, n2, res, step = self._refine_stage(y_mid, disc, mid, eps_to, depth - 1)
+        y_mid, n1, _, _ = self._reach(y, disc, eps_from, mid, depth)
+        y_end, n2, res, step = self._reach(y_mid, disc, mid, eps_to, depth)
         return y_end, n1 + n2, res, step
 
     def limit_load(self, speeds_over_v: tuple[float, ...] = (3.0, 10.0)) -> dict[str, float]:
