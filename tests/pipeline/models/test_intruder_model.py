@@ -83,3 +83,18 @@ def test_plastic_solvers_take_their_own_draw_count() -> None:
         assert intruder_draws(config, other) == models["intruder_draws"]
     del models["intruder_plastic_draws"]
     assert intruder_draws(config, "critical_state") == models["intruder_draws"]
+
+
+def test_a_scene_without_a_nominal_prediction_is_not_solved_for_draws_or_grid(solved) -> None:
+    """Where the calibration's own parameters have no prediction (refused or not converged), the
+    draws (u_input) and the finer grid (u_num) would be uncertainties of no score: that scene is
+    left unsolved (NaN, refused = 1, not counted as a draw's failure), the others solved as
+    before."""
+    out, results = solved
+    draw = {"values": dict(MU), "sigma_zz_over_p": 1.058, "nonlocal": {"ngf": {"A": 0.327}}}
+    nominal = [results[0], None, results[2]]
+    ens = predict_draws("ngf", PARAMS, {"draws": [draw], "seed": 1}, RUNS, [fields()] * len(RUNS), 1, nominal,
+                        cells_per_d=2.0, refined_cells_per_d=3.0, draws_cells_per_d=2.0)
+    assert np.isnan(ens.speed.values[0, 1]) and ens.refused.values[0, 1] == 1
+    assert np.isnan(ens.speed_refined.values[1]) and json.loads(ens.attrs["failures"]) == {}
+    assert np.all(np.isfinite(ens.speed.values[0, [0, 2]])) and np.all(np.isfinite(ens.speed_refined.values[[0, 2]]))
