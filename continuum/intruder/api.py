@@ -154,8 +154,9 @@ def intruder_speed(model: str, geometry: PlanarShear, params: Any, intruder: Rod
         return entry.estimate(geometry, params, intruder, cell_length_x, grid, dict(planar_options or {}), case)
     solver = entry.solver(geometry, params, cell_length_x, intruder, grid, case)
     state = None
-    if warm is not None and warm.state is not None and np.size(next(iter(warm.state.values()))) == solver.grid.n_cells:
-        state = warm.state
+    if warm is not None and warm.state is not None and (np.size(next(iter(warm.state.values()))) == solver.grid.n_cells
+                                                        or "grid" in warm.state):
+        state = warm.state  # (a state with its grid is carried onto this one by the solver)
     sol = solver.solve(state)
     attrs = dict(sol.attrs)
     attrs.update({f"residual_{k}": float(v) for k, v in sol.residuals.items()})

@@ -28,6 +28,8 @@ from .. import solve as solve_planar
 from ..errors import ConvergenceError, OutOfRangeError
 from ..geometry import PlanarShear
 from .framework import P_FLOOR, Flow, RodSolution, RodSolver
+from .mac import MacGrid
+from .regrid import regrid_state
 from .plastic2d import Discretisation, PlasticLaw, Scales, averaging_operators, corner_xz, equations, fill_map, inside_rod
 from .scene import GridOptions, RodIntruder
 
@@ -224,6 +226,11 @@ class YieldRodSolver(RodSolver):
         planar_seconds = time.perf_counter() - t1
         disc = self._discretisation()
         stages = self.regularisations
+        if warm is not None and set(warm) >= {"u", "w", "pi", "U"} and warm["u"].size != self.grid.n_cells \
+                and "grid" in warm:
+            nx, nz, hx, hz = warm["grid"]
+            warm = regrid_state(warm, MacGrid(int(nx), int(nz), float(hx), float(hz)), self.grid,
+                                self.geometry.wall_speed)
         if warm is not None and set(warm) >= {"u", "w", "pi", "U"} and warm["u"].size == self.grid.n_cells:
             y = np.concatenate([warm["u"], warm["w"], warm["pi"], warm["U"][:1] if disc.has_rod else []])
             stages = stages[-2:]  # two stages: the limit is read from their U
@@ -286,7 +293,8 @@ class YieldRodSolver(RodSolver):
         nc, nw = self.grid.n_cells, self.grid.n_w
         # the first entry has the cells' size (the registry's warm-start check)
         state = {"u": y[:nc].copy(), "w": y[nc:nc + nw].copy(), "pi": y[nc + nw:2 * nc + nw].copy(),
-                 "U": np.array([y[-1] if disc.has_rod else np.nan])}
+                 "U": np.array([y[-1] if disc.has_rod else np.nan]),
+                 "grid": np.array([self.grid.nx, self.grid.nz, self.grid.hx, self.grid.hz])}
         return RodSolution(self.model, speed, True, iterations, residuals, time.perf_counter() - t0,
                            self.grid.n_cells, flow, state, self._dataset(flow, {}), planar, planar_seconds, attrs)
 

@@ -14,7 +14,10 @@ whose 2D solve does not converge is not written as a number: it is listed in ``r
 Cost (issue 43, item 7): a scene at a depth already solved starts from that solution (the force
 sweep is a continuation in F); each parameter draw starts from the nominal solution of its
 scene. The nominal 2D solves run at ``CELLS_PER_D``, the draws (u_input) at
-``DRAWS_CELLS_PER_D``, the grid study (``speed_refined``: u_num) at ``REFINED_CELLS_PER_D``.
+``DRAWS_CELLS_PER_D``, the grid study (``speed_refined``: u_num) at ``REFINED_CELLS_PER_D``, each
+of its solves started from the nominal solution carried onto the finer grid where the solver can
+(the yield-stress models). A scene the nominal parameters give no speed for is solved by neither
+the draws nor the grid study (``NOMINAL_REFUSED``).
 
 Usage: ``python -m pipeline.models.intruder --config C --params params.json --model ngf
 --runs RESULTS/dem/intruder/D5-r1/run.json ... --fields RESULTS/fields/intruder/D5-r1.nc ... --out F.nc``
@@ -274,8 +277,11 @@ def predict_draws(model: str, params: dict[str, Any], ensemble: dict[str, Any], 
                 seconds[k, j] = result.solve_seconds
     draws_seconds = time.perf_counter() - t0
     t1 = time.perf_counter()
+    # The finer grid starts from the nominal solution carried onto it (the solvers that can:
+    # continuum.intruder.regrid; measured on a 14 d bed, 2 -> 3 cells per d: the same U to
+    # round-off in about half the CPU time of a cold solve, for critical state and mu(I)).
     refined_results, _ = solve_scenes(model, model_parameters(params, model), scenes, refined_cells_per_d,
-                                      only=predicted)
+                                      warm=nominal, only=predicted)
     refined = np.array([r.speed if r is not None else np.nan for r in refined_results])
     refined_seconds = time.perf_counter() - t1
     out = xr.Dataset(coords={"draw": ("draw", np.arange(len(draws)), {"units": "1", "long_name": "parameter draw"}),

@@ -96,3 +96,35 @@ def test_critical_state_refuses_a_push_above_its_limit_load() -> None:
     # the wall (3 V against 10 V within 1 %): that plateau is the limit load
     assert loads["limit_force_3V"] == pytest.approx(loads["limit_force_10V"], rel=1e-2)
     assert 1.096 < loads["limit_force_10V"] < 20.0
+
+
+def test_regrid_carries_a_linear_state_exactly() -> None:
+    """Bilinear interpolation, periodic in x, with the walls' values as rows: a field linear in z
+    (the planar shear u = V z / H, w = 0, a hydrostatic pi) is carried onto another grid exactly."""
+    from continuum.intruder.mac import MacGrid
+    from continuum.intruder.regrid import regrid_state
+    h, lx, V = 10 * D, 4 * D, 0.1
+    old, new = MacGrid(8, 20, lx / 8, h / 20), MacGrid(12, 30, lx / 12, h / 30)
+    zu = np.repeat(old.z_centres, old.nx)
+    state = {"u": V * zu / h, "w": np.zeros(old.n_w), "pi": 200.0 + 30.0 * (h - zu), "U": np.array([0.05])}
+    out = regrid_state(state, old, new, V)
+    z_new = np.repeat(new.z_centres, new.nx)
+    assert np.allclose(out["u"], V * z_new / h, rtol=0, atol=1e-12 * V)
+    assert np.allclose(out["pi"], 200.0 + 30.0 * (h - z_new), rtol=1e-12) and not out["w"].any()
+    assert out["U"][0] == 0.05
+
+
+def test_a_finer_grid_started_from_the_coarse_solution_reaches_the_cold_solution() -> None:
+    """The grid study's warm start (``predict_draws``): mu(I) around the rod at 2 cells per d,
+    carried onto 3 cells per d, converges to the cold 3-cells-per-d speed (same equations, same
+    convergence test: to 1e-6 relative) in fewer Newton iterations."""
+    geo = PlanarShear(depth=14 * D, wall_speed=0.1, wall_pressure=200.0, gravity=9.81, d=D, rho_s=2500.0,
+                      normal_stress_ratio=1.058)
+    f_y = 1.5 * (200 + 0.6 * 2500 * 9.81 * 7 * D) * 3 * D
+    rod = RodIntruder.below_top(geo, 3 * D, 7 * D, 0.5 * f_y)
+    coarse = intruder_speed("local_mu_i", geo, LOCAL, rod, 8 * D, GridOptions(cells_per_d=2))
+    cold = intruder_speed("local_mu_i", geo, LOCAL, rod, 8 * D, GridOptions(cells_per_d=3))
+    warm = intruder_speed("local_mu_i", geo, LOCAL, rod, 8 * D, GridOptions(cells_per_d=3), warm=coarse)
+    assert 0.01 * geo.wall_speed < cold.speed < geo.wall_speed  # a creeping rod, not one carried with the wall
+    assert warm.speed == pytest.approx(cold.speed, rel=1e-6)
+    assert warm.iterations < cold.iterations
