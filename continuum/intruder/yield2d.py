@@ -44,6 +44,14 @@ REGULARISATIONS = (1e-1, 1e-2, 1e-3, 1e-4, 1e-5)
 #: d ln U / d ln eps between the last two stages above which U is the creep of a rigid zone
 #: (U proportional to eps): the model's speed is then 0, with U(last eps) kept as its bound.
 RIGID_SLOPE = 0.9
+#: Stages of a start from a solution on another grid (``regrid``): the interpolated state is
+#: not a solution near the new staircase rod, so the continuation restarts where the law is
+#: smoother than at the last two stages. Only for the local laws (l = 0): with the averaging
+#: operator the interpolated rigid-zone rates set stresses far from balance (measured: the
+#: volume-averaged model on a 14 d bed, 2 -> 3 cells per d, starts at a scaled residual 11 and its
+#: rod runs away at eps = 1e-3 V/d; cold it converges), so the volume-averaged model's finer grid
+#: starts cold.
+REGRID_STAGES = 3
 #: Newton iterations allowed per stage.
 MAX_NEWTON = 60
 #: |U| / V beyond which a Newton iterate is taken as a rod with no steady state (runaway).
@@ -226,14 +234,20 @@ class YieldRodSolver(RodSolver):
         planar_seconds = time.perf_counter() - t1
         disc = self._discretisation()
         stages = self.regularisations
+        first = 0
         if warm is not None and set(warm) >= {"u", "w", "pi", "U"} and warm["u"].size != self.grid.n_cells \
-                and "grid" in warm:
+                and "grid" in warm and self.law.length == 0.0:
             nx, nz, hx, hz = warm["grid"]
             warm = regrid_state(warm, MacGrid(int(nx), int(nz), float(hx), float(hz)), self.grid,
                                 self.geometry.wall_speed)
+            first = max(len(stages) - REGRID_STAGES, 0)
+        elif warm is not None and warm["u"].size != self.grid.n_cells:
+            warm = None
+        elif warm is not None:
+            first = max(len(stages) - 2, 0)  # two stages: the limit is read from their U
         if warm is not None and set(warm) >= {"u", "w", "pi", "U"} and warm["u"].size == self.grid.n_cells:
             y = np.concatenate([warm["u"], warm["w"], warm["pi"], warm["U"][:1] if disc.has_rod else []])
-            stages = stages[-2:]  # two stages: the limit is read from their U
+            stages = stages[first:]
         else:
             y = self._initial(planar, disc)
         by_eps: dict[float, float] = {}
@@ -331,13 +345,24 @@ class YieldRodSolver(RodSolver):
             out[f"limit_force_{k:g}V"] = float(driven.solve_regularised().attrs["rod_force"])
         return out
 
+    def _solve_warm_then_cold(self, warm: dict[str, np.ndarray] | None) -> RodSolution:
+        """``solve_regularised`` from ``warm``; if that fails, once more from the planar start (a
+        warm start is a guess: its failure says nothing of the model)."""
+        if warm is None:
+            return self.solve_regularised(None)
+        try:
+            return self.solve_regularised(warm)
+        except ConvergenceError:
+            self._force_fraction = 1.0
+            return self.solve_regularised(None)
+
     def solve(self, warm: dict[str, np.ndarray] | None = None) -> RodSolution:
         """``solve_regularised``; where a rod under a given push finds no steady state (it runs
         away, or Newton fails), the limit load is computed (``limit_load``) and, if the push
         exceeds it, ``OutOfRangeError`` reports it as a number (the model's answer: the rod
         fails). A failure below the computed limit load stays a ``ConvergenceError``."""
         try:
-            return self.solve_regularised(warm)
+            return self._solve_warm_then_cold(warm)
         except ConvergenceError as exc:
             if self.rod is None or self.driven_speed is not None or self.law.mu_i is not None:
                 raise  # (mu(I) is rate-dependent: no limit load; its failures are failures)
