@@ -18,8 +18,10 @@ hydrostatic with nu 0.6, pipeline/dem/intruder_run.py). Parameters: the default 
 calibration (docs/validation.md: mu_s 0.374 +- 0.0028, mu_2 1.023 +- 0.045, I_0 0.637 +- 0.075,
 nu_c 0.587, NGF A 0.327 +- 0.055); draws independent normal with those errors, seed 43.
 
-Run: ``nice -n 5 python benchmarks/intruder_solve.py [--draws 8] [--cold-draws 2] [--models ngf ngf_frozen]
-[--draws-cells 3] [--no-grid]``. CPU seconds (time.process_time) are reported, the machine being shared.
+Run: ``nice -n 5 python benchmarks/intruder_solve.py [--draws 8] [--cold-draws 2] [--models ngf ngf_frozen
+local_mu_i critical_state volume_averaged] [--draws-cells 3] [--no-grid] [--grid-warm] [--grid-pushes 0.3 0.6]``
+(the yield-stress models' draws vary mu_s, and mu_2, I_0 for mu(I), l = 1.165 +- 0.06 d for the volume-averaged
+model). CPU seconds (time.process_time) are reported, the machine being shared.
 """
 from __future__ import annotations
 
@@ -36,14 +38,15 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 import continuum  # noqa: E402
 from continuum.intruder import INTRUDER_MODELS, GridOptions, RodIntruder, intruder_speed  # noqa: E402
-from continuum.parameters import MuIParameters, NGFParameters  # noqa: E402
+from continuum.parameters import (CriticalStateLine, CriticalStateParameters, LocalMuIParameters,  # noqa: E402
+                                  MuIParameters, NGFParameters, SolidFractionLaw, VolumeAveragedParameters)
 
 D = 0.002
 GEO = continuum.PlanarShear(depth=21.6 * D, wall_speed=0.1, wall_pressure=200.0, gravity=9.81, d=D, rho_s=2500.0,
                             normal_stress_ratio=1.058)
 LX = 12 * D
-NOMINAL = {"mu_s": 0.374, "mu_2": 1.023, "I_0": 0.637, "A": 0.327}
-ERRORS = {"mu_s": 0.0028, "mu_2": 0.045, "I_0": 0.075, "A": 0.055}
+NOMINAL = {"mu_s": 0.374, "mu_2": 1.023, "I_0": 0.637, "A": 0.327, "l": 1.165 * D}
+ERRORS = {"mu_s": 0.0028, "mu_2": 0.045, "I_0": 0.075, "A": 0.055, "l": 0.06 * D}
 DEM_SLOPE, DEM_SLOPE_ERR = 3.7, 0.5
 
 
@@ -56,8 +59,16 @@ SCENES = [(5.0, 0.5 * yield_force(5)), (7.0, 0.5 * yield_force(5)), (9.0, 0.5 * 
 
 
 def parameters(model: str, v: dict[str, float]):
+    mu_i = MuIParameters(v["mu_s"], v["mu_2"], v["I_0"])
+    critical = CriticalStateParameters(v["mu_s"], CriticalStateLine(0.5868, 0.005, 300.0))
     if model in ("ngf", "ngf_frozen"):
-        return NGFParameters(MuIParameters(v["mu_s"], v["mu_2"], v["I_0"]), A=v["A"], nu=0.587)
+        return NGFParameters(mu_i, A=v["A"], nu=0.587)
+    if model == "local_mu_i":
+        return LocalMuIParameters(mu_i, SolidFractionLaw(0.5868, 0.141))
+    if model == "critical_state":
+        return critical
+    if model == "volume_averaged":
+        return VolumeAveragedParameters(critical, v["l"])
     raise KeyError(f"benchmark has no parameters for {model!r} yet")
 
 
@@ -83,6 +94,10 @@ def main() -> None:
     ap.add_argument("--draws-cells", type=float, default=3.0,
                     help="grid of the draws (cells per d); the nominal solve they start from is re-solved there")
     ap.add_argument("--no-grid", action="store_true")
+    ap.add_argument("--grid-warm", action="store_true",
+                    help="start the 4 and 6 cells/d solves from the 3 cells/d one carried onto them (the pipeline's "
+                         "grid study does, for the solvers that can: continuum/intruder/regrid.py)")
+    ap.add_argument("--grid-pushes", nargs="+", type=float, default=[0.3, 0.6])
     args = ap.parse_args()
     rng = np.random.default_rng(43)
     draws = [{k: NOMINAL[k] + ERRORS[k] * rng.standard_normal() for k in NOMINAL} for _ in range(args.draws)]
@@ -146,11 +161,14 @@ def main() -> None:
     if not args.no_grid:
         print("grid convergence (nominal parameters, 7 d):")
         for model in args.models:
-            for push in (0.3, 0.6):
+            for push in args.grid_pushes:
                 scene = (7.0, push * yield_force(7))
                 row = []
+                coarse = None
                 for cells in (3.0, 4.0, 6.0):
-                    res, sec, err = timed(model, NOMINAL, scene, cells)
+                    res, sec, err = timed(model, NOMINAL, scene, cells, warm=coarse if args.grid_warm else None)
+                    if cells == 3.0:
+                        coarse = res
                     row.append((cells, res.speed if res else math.nan, res.iterations if res else -1, sec))
                     if cells == 4.0 and model in stage:
                         stage[model] += sec * len(SCENES) / 2.0  # the grid study: every scene at 4 cells/d
