@@ -25,7 +25,10 @@ comes from a weighted straight-line fit of ln u on z, its error from the fit (th
 no kernel inflation) times one scale, the replicas' own verdict on it: windows of two replicas of a
 case at the same depth differ by ``sqrt(mean z^2)`` times their combined stated errors
 (:func:`replica_error_scale`), which the slope errors are multiplied by. Each row carries the
-window's mean stress ratio and inertial number.
+window's mean stress ratio and inertial number, with its time error times the replicas' verdict
+on it (the same test on mu, floored at 1: the packing's frozen stresses and each replica's wall
+friction move mu between replicas beyond its time error, and a fit that ignores it is pulled
+towards beta = 0).
 
 Fit: ``k d = (mu_s - mu)^beta / C`` (so ``xi / d = C (mu_s - mu)^(-beta)``) by weighted least
 squares **in k** over the windows below yield (mu < mu_s), the error of each row combining that of
@@ -118,13 +121,14 @@ def _dem_rows(ds: xr.Dataset, mu_s: float, role: str, rule: str, path: Path | st
     return frame.assign(mu_over_mu_s=frame.mu / mu_s)
 
 
-def replica_error_scale(windows: pd.DataFrame) -> tuple[float, int]:
-    """The replicas' verdict on the slope errors: for every pair of replicas of a case with a window
-    at the same depth, ``z = (k_a - k_b) / sqrt(s_a^2 + s_b^2)``; returns ``sqrt(mean z^2)`` and the
-    number of pairs (scale 1 with fewer than 3 pairs: nothing to judge by)."""
+def replica_error_scale(windows: pd.DataFrame, value: str = "slope", error: str = "slope_err") -> tuple[float, int]:
+    """The replicas' verdict on the errors of column ``value`` (the slope by default): for every pair
+    of replicas of a case with a window at the same depth, ``z = (k_a - k_b) / sqrt(s_a^2 + s_b^2)``;
+    returns ``sqrt(mean z^2)`` and the number of pairs (scale 1 with fewer than 3 pairs: nothing to
+    judge by)."""
     terms: list[np.ndarray] = []
     for _, group in windows.groupby(["case", "window"]):
-        k, s = group.slope.to_numpy(dtype=float), group.slope_err.to_numpy(dtype=float)
+        k, s = group[value].to_numpy(dtype=float), group[error].to_numpy(dtype=float)
         i, j = np.triu_indices(k.size, 1)
         combined = np.hypot(s[i], s[j])
         keep = combined > 0
@@ -276,6 +280,17 @@ def scaled_windows(sources: list[tuple[Path | xr.Dataset, str]], mu_s: float, ru
     dem = pd.concat([f for f in frames if len(f)] or frames[:1], ignore_index=True)
     scale, pairs = replica_error_scale(dem[dem.slope_bounded.astype(bool)])
     dem["slope_err"] = dem.slope_err * scale
+    # mu's stated error is its time error; the replicas at one depth differ besides by the
+    # packing's frozen stresses and their wall friction. Taken from them as the slope's is (floored
+    # at 1: a window's mu is not known better than its own time series says). Measured on the
+    # synthetic beds with a known beta (tests/pipeline/scoring/test_decay_length_synthetic.py): with
+    # the time error alone the fit pulls beta towards 0 by mu's scatter (0.42 for a true 0.5, -0.135
+    # for -0.16, 30 realisations each) and its 95 % interval covers the truth in 54 of 90; with the
+    # replicas' scale 0.501 and -0.165, and 77 of 90.
+    mu_scale, mu_pairs = replica_error_scale(dem, "mu", "mu_err")
+    mu_scale = max(mu_scale, 1.0)
+    dem["mu_err"] = dem.mu_err * mu_scale
+    dem.attrs["mu_error_scale"] = (mu_scale, mu_pairs)
     dem["xi_err"] = np.where(dem.slope > 0, dem.slope_err / np.where(dem.slope > 0, dem.slope, 1.0) ** 2, np.inf)
     return dem, scale, pairs
 
@@ -295,20 +310,23 @@ def main(argv: list[str] | None = None) -> int:
     calibrated = calibration_cases(params)
     dem, scale, pairs = scaled_windows([(f, "calibration" if f.parent.name in calibrated else "held_out")
                                         for f in args.fields], mu_s, args.rule)
+    mu_scale, mu_pairs = dem.attrs["mu_error_scale"]
     dem = dem[COLUMNS]
     fields = {(f.parent.name, f.stem): f for f in args.fields}
     models = pd.concat([model_rows(f, dem, mu_s, d, fields) for f in args.models] or [pd.DataFrame(columns=MODEL_COLUMNS)],
                        ignore_index=True)
-    fits = fits_table(dem, models, mu_s, d).assign(mu_s=mu_s, slope_error_scale=scale, slope_error_scale_pairs=pairs)
+    fits = fits_table(dem, models, mu_s, d).assign(mu_s=mu_s, slope_error_scale=scale, slope_error_scale_pairs=pairs,
+                                                   mu_error_scale=mu_scale, mu_error_scale_pairs=mu_pairs)
     meta = provenance(load_config(args.config))
     atomic.write_csv(dem, args.out)
     atomic.write_csv(models, args.out.with_name("decay_length_models.csv"))
     atomic.write_csv(fits, args.out.with_name("decay_length_fit.csv"))
     atomic.write_text(json.dumps({"mu_s": mu_s, "window_rule": args.rule, "window_over_d": WINDOW_OVER_D, "creep_fraction": CREEP_FRACTION,
                                   "band_edge": BAND_EDGE, "slope_error_scale": scale, "slope_error_scale_pairs": pairs,
+                                  "mu_error_scale": mu_scale, "mu_error_scale_pairs": mu_pairs,
                                   "provenance": meta}, indent=1), args.out.with_name("decay_length.json"))
     print(f"{len(dem)} DEM windows from {len(args.fields)} runs; slope errors scaled by {scale:.3g} "
-          f"(the replicas' verdict, {pairs} pairs); fits:")
+          f"(the replicas' verdict, {pairs} pairs), mu errors by {mu_scale:.3g} ({mu_pairs} pairs); fits:")
     with pd.option_context("display.width", 250, "display.max_columns", 30):
         print(fits.to_string(index=False))
     return 0

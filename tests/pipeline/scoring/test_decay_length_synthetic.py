@@ -111,10 +111,11 @@ def test_a_steady_creep_with_one_decay_length_is_read_without_bias(rule: str) ->
     assert abs(rows[:, 0].mean()) < 3.0 * rows[:, 0].std(ddof=1) / math.sqrt(len(rows)), rows[:, 0].mean()
 
 
-@pytest.mark.xfail(strict=True, reason="measured (docs/validation.md, 'Is the negative beta real?'): the fit's "
-                   "error is 1.5-3.2 times short (mu's error is its time error, not the packing's wander) and "
-                   "the chain biased (beta pulled towards 0 by mu's wander, lowered by the ageing): its 95 % "
-                   "interval covers the truth in 27-79 % of realisations")
+@pytest.mark.xfail(strict=True, reason="measured (docs/validation.md, 'Is the negative beta real?'): with mu's "
+                   "errors scaled by the replicas (2026-12-05) the chain is unbiased, but its stated error is still "
+                   "1.3-1.8 times short under the resolved rule and 1.4-2.1 under fixed_depth (the windows of one "
+                   "replica share its packing and its wall friction, and the fit counts them as independent): "
+                   "77 and 66 of 90 intervals cover the truth")
 @pytest.mark.parametrize("rule", RULES)
 def test_the_interval_covers_the_truth_at_its_stated_rate(rule: str) -> None:
     """Every noise term and the measured ageing (u ~ t^-0.5 below 6 d): over 30 seeded
@@ -134,3 +135,15 @@ def test_no_true_beta_at_zero_or_above_reads_as_the_defaults() -> None:
     rows = recovered(0.0, ("shear_gravity", "shear_gravity_fast", "shear_gravity_heavy"), True, 30)
     for rule in RULES:
         assert int(np.sum(rows[rule][:, 0] <= DEFAULT_BETA)) <= 1, (rule, np.sort(rows[rule][:, 0])[:3])
+
+
+@pytest.mark.parametrize("rule", RULES)
+def test_the_recovered_beta_is_unbiased_with_every_noise_term(rule: str) -> None:
+    """Every noise term and the measured ageing, the calibration case's four replicas, 30 seeded
+    realisations at each of beta = 0.5, 0 and -0.16: the mean recovered beta is the truth within
+    3 of its standard errors (the spread over the realisations / sqrt 30). Before mu's errors
+    carried the replicas' verdict (decay_length.scaled_windows) the fit pulled beta towards 0 by
+    mu's scatter: 0.42 +- 0.03 for a true 0.5 under the resolved rule."""
+    for beta in (0.5, 0.0, DEFAULT_BETA):
+        rows = recovered(beta, ("shear_gravity",), True, 30)[rule][:, 0]
+        assert abs(rows.mean() - beta) < 3.0 * rows.std(ddof=1) / math.sqrt(len(rows)), (beta, rows.mean())
