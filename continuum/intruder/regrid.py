@@ -26,6 +26,13 @@ def _interp(values: np.ndarray, x: np.ndarray, z: np.ndarray, lx: float, xq: np.
     return f(np.column_stack([zq, xq]))
 
 
+def same_cell(grid_of_state: np.ndarray, grid: MacGrid) -> bool:
+    """Whether a state's grid (nx, nz, hx, hz) spans the same cell as ``grid`` (to 1e-9): a state of
+    another scene (a bed a fraction of a grain deeper) is no start on another grid."""
+    nx, nz, hx, hz = (float(v) for v in grid_of_state)
+    return bool(np.isclose(nx * hx, grid.nx * grid.hx, rtol=1e-9) and np.isclose(nz * hz, grid.nz * grid.hz, rtol=1e-9))
+
+
 def regrid_state(state: dict[str, np.ndarray], old: MacGrid, new: MacGrid, top_speed: float) -> dict[str, np.ndarray]:
     """``state`` (``u``, ``w``, ``pi`` flat on ``old``, ``U``) on ``new``: same cell (nx hx, nz hz
     equal to round-off), other spacings. Units unchanged (m s-1, Pa)."""

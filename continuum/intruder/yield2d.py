@@ -29,7 +29,7 @@ from ..errors import ConvergenceError, OutOfRangeError
 from ..geometry import PlanarShear
 from .framework import P_FLOOR, Flow, RodSolution, RodSolver
 from .mac import MacGrid
-from .regrid import regrid_state
+from .regrid import regrid_state, same_cell
 from .plastic2d import Discretisation, PlasticLaw, Scales, averaging_operators, corner_xz, equations, fill_map, inside_rod
 from .scene import GridOptions, RodIntruder
 
@@ -251,7 +251,7 @@ class YieldRodSolver(RodSolver):
         stages = self.regularisations
         first = 0
         if warm is not None and set(warm) >= {"u", "w", "pi", "U"} and warm["u"].size != self.grid.n_cells \
-                and "grid" in warm and self.law.length == 0.0:
+                and "grid" in warm and self.law.length == 0.0 and same_cell(warm["grid"], self.grid):
             nx, nz, hx, hz = warm["grid"]
             warm = regrid_state(warm, MacGrid(int(nx), int(nz), float(hx), float(hz)), self.grid,
                                 self.geometry.wall_speed)

@@ -128,3 +128,22 @@ def test_a_finer_grid_started_from_the_coarse_solution_reaches_the_cold_solution
     assert 0.01 * geo.wall_speed < cold.speed < geo.wall_speed  # a creeping rod, not one carried with the wall
     assert warm.speed == pytest.approx(cold.speed, rel=1e-6)
     assert warm.iterations < cold.iterations
+
+
+def test_a_state_of_another_bed_on_another_grid_is_no_start() -> None:
+    """The nominal sweep starts a scene from the last one at its depth, whose bed may be a fraction
+    of a grain deeper (another replica's run: 21.56 d against 21.47 d in the default of
+    2026-12-05), so another nz: that state is not carried (another cell), the solve starts cold
+    and gives the cold speed."""
+    deeper = PlanarShear(depth=14.3 * D, wall_speed=0.1, wall_pressure=200.0, gravity=9.81, d=D, rho_s=2500.0,
+                         normal_stress_ratio=1.058)
+    geo = PlanarShear(depth=14 * D, wall_speed=0.1, wall_pressure=200.0, gravity=9.81, d=D, rho_s=2500.0,
+                      normal_stress_ratio=1.058)
+    f_y = 1.5 * (200 + 0.6 * 2500 * 9.81 * 7 * D) * 3 * D
+    other = intruder_speed("local_mu_i", deeper, LOCAL, RodIntruder.below_top(deeper, 3 * D, 7 * D, 0.5 * f_y), 8 * D,
+                           GridOptions(cells_per_d=2))
+    rod = RodIntruder.below_top(geo, 3 * D, 7 * D, 0.5 * f_y)
+    cold = intruder_speed("local_mu_i", geo, LOCAL, rod, 8 * D, GridOptions(cells_per_d=2))
+    started = intruder_speed("local_mu_i", geo, LOCAL, rod, 8 * D, GridOptions(cells_per_d=2), warm=other)
+    assert other.state["u"].size != cold.state["u"].size
+    assert started.speed == cold.speed and started.iterations == cold.iterations
