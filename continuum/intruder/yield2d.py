@@ -238,6 +238,27 @@ class YieldRodSolver(RodSolver):
         raise ConvergenceError(self.model, res, f"Newton not converged in {MAX_NEWTON} iterations at eps = "
                                f"{eps_rel:g} V/d (last step {step:.2g})", self.case)
 
+    def _start(self, warm: dict[str, np.ndarray] | None, planar: xr.Dataset,
+               disc: Discretisation) -> tuple[np.ndarray, tuple[float, ...]]:
+        """The first iterate and the regularisation stages to run: from ``warm`` on this grid (the
+        last two stages), from ``warm`` carried from another grid of the same cell (the local laws:
+        the last ``REGRID_STAGES``), else from the planar solution (every stage)."""
+        stages = self.regularisations
+        usable = warm is not None and set(warm) >= {"u", "w", "pi", "U"}
+        if usable and warm["u"].size != self.grid.n_cells:
+            if "grid" not in warm or self.law.length != 0.0 or not same_cell(warm["grid"], self.grid):
+                return self._initial(planar, disc), stages
+            nx, nz, hx, hz = warm["grid"]
+            warm = regrid_state(warm, MacGrid(int(nx), int(nz), float(hx), float(hz)), self.grid,
+                                self.geometry.wall_speed)
+            first = max(len(stages) - REGRID_STAGES, 0)
+        elif usable:
+            first = max(len(stages) - 2, 0)  # two stages: the limit is read from their U
+        else:
+            return self._initial(planar, disc), stages
+        y = np.concatenate([warm["u"], warm["w"], warm["pi"], warm["U"][:1] if disc.has_rod else []])
+        return y, stages[first:]
+
     @np.errstate(under="ignore")  # products of the rigid zones' tiny rates underflow harmlessly
     def solve_regularised(self, warm: dict[str, np.ndarray] | None = None) -> RodSolution:
         """Converged solution at the last regularisation, with the rod speed at every stage.
@@ -248,23 +269,7 @@ class YieldRodSolver(RodSolver):
         planar = self.planar_solution()
         planar_seconds = time.perf_counter() - t1
         disc = self._discretisation()
-        stages = self.regularisations
-        first = 0
-        if warm is not None and set(warm) >= {"u", "w", "pi", "U"} and warm["u"].size != self.grid.n_cells \
-                and "grid" in warm and self.law.length == 0.0 and same_cell(warm["grid"], self.grid):
-            nx, nz, hx, hz = warm["grid"]
-            warm = regrid_state(warm, MacGrid(int(nx), int(nz), float(hx), float(hz)), self.grid,
-                                self.geometry.wall_speed)
-            first = max(len(stages) - REGRID_STAGES, 0)
-        elif warm is not None and warm["u"].size != self.grid.n_cells:
-            warm = None
-        elif warm is not None:
-            first = max(len(stages) - 2, 0)  # two stages: the limit is read from their U
-        if warm is not None and set(warm) >= {"u", "w", "pi", "U"} and warm["u"].size == self.grid.n_cells:
-            y = np.concatenate([warm["u"], warm["w"], warm["pi"], warm["U"][:1] if disc.has_rod else []])
-            stages = stages[first:]
-        else:
-            y = self._initial(planar, disc)
+        y, stages = self._start(warm, planar, disc)
         by_eps: dict[float, float] = {}
         iterations, res, step = 0, np.nan, np.nan
         y_last = y
