@@ -51,6 +51,20 @@ def slope(push: np.ndarray, log_speed: np.ndarray) -> float:
     return float(np.polyfit(push[ok], log_speed[ok], 1)[0]) if ok.sum() >= 2 else math.nan
 
 
+def at_pushes(model_pushes: np.ndarray, model_speeds: np.ndarray, pushes: np.ndarray) -> np.ndarray:
+    """The model's speed (m s-1) at each of the DEM's ``pushes`` (F / F_y), NaN where the model's file
+    has no scene within 1e-6 of it. A lookup, not an interpolation: the model's pushes are the DEM
+    runs' own (run.json's ``push_over_yield``, 0.8999999999999999 where the DEM's groups round it to
+    0.9), and a speed between two pushes is no scene either of them solved."""
+    model_pushes = np.asarray(model_pushes, dtype=float)
+    out = np.full(np.shape(pushes), np.nan)
+    for k, p in enumerate(np.asarray(pushes, dtype=float)):
+        match = np.flatnonzero(np.isclose(model_pushes, p, rtol=0.0, atol=1e-6))
+        if match.size:
+            out[k] = float(np.asarray(model_speeds, dtype=float)[match[0]])
+    return out
+
+
 def _log(u: np.ndarray) -> np.ndarray:
     u = np.asarray(u, dtype=float)
     out = np.full(u.shape, np.nan)
@@ -92,7 +106,7 @@ def score_force_sweep(runs: list[dict], model_files: dict[str, Path], draw_files
         with xr.open_dataset(path) as sol:
             if "sweep_speed" not in sol:
                 continue
-            model_u = np.interp(pushes, sol.push_over_yield.values, sol.sweep_speed.values, left=np.nan, right=np.nan)
+            model_u = at_pushes(sol.push_over_yield.values, sol.sweep_speed.values, pushes)
             n_grid, seconds = int(sol.attrs["n_grid"]), float(sol.attrs["solve_seconds"])
         model_log = _log(model_u)
         draws_log = np.full((0, pushes.size), np.nan)
