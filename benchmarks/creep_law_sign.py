@@ -38,8 +38,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from pipeline.common.config import load_config  # noqa: E402
 from pipeline.scoring import synthetic_creep as synthetic  # noqa: E402
-from pipeline.scoring.decay_length import (BAND_EDGE, RULES, DecayLengthError, fit_law, scaled_windows,  # noqa: E402
-                                           select_model)
+from pipeline.scoring.decay_length import (BAND_EDGE, RULES, DecayLengthError, fit_law, jackknife_error,  # noqa: E402
+                                           scaled_windows, select_model)
 
 CASES = ("shear_gravity", "shear_gravity_fast", "shear_gravity_heavy")
 
@@ -48,20 +48,6 @@ def beta_of(windows: pd.DataFrame, mu_s: float, d: float) -> dict[str, float]:
     """The law's fit on ``windows`` (the workflow's, :func:`fit_law`) with the model selection."""
     fit = fit_law(windows.mu.values, windows.slope.values * d, windows.slope_err.values * d, windows.mu_err.values, mu_s)
     return fit | {"delta_aic": select_model(windows, mu_s, d)["delta_aic"]}
-
-
-def jackknife_error(windows: pd.DataFrame, mu_s: float, d: float) -> float:
-    """Leave-one-run-out jackknife standard error of beta over the runs in ``windows``."""
-    runs = list(windows.groupby(["case", "run"]).groups)
-    if len(runs) < 3:
-        return math.nan
-    betas = []
-    for case, run in runs:
-        keep = ~((windows.case == case) & (windows.run == run))
-        betas.append(fit_law(windows.mu.values[keep], windows.slope.values[keep] * d, windows.slope_err.values[keep] * d,
-                             windows.mu_err.values[keep], mu_s)["beta"])
-    b = np.asarray(betas)
-    return float(math.sqrt((b.size - 1) / b.size * np.sum((b - b.mean()) ** 2)))
 
 
 def profile_summary(sets: list, mu_s: float, depths_over_d: tuple[float, ...] = (3, 5, 7, 9, 11, 13, 15, 17)) -> pd.DataFrame:
@@ -114,7 +100,7 @@ def coverage(args: argparse.Namespace) -> int:
                 try:
                     fit = fit_law(windows.mu.values, windows.slope.values * d, windows.slope_err.values * d,
                                   windows.mu_err.values, args.mu_s)
-                    jk = jackknife_error(windows, args.mu_s, d) if args.jackknife else math.nan
+                    jk = jackknife_error(windows, args.mu_s, d)[0] if args.jackknife else math.nan
                 except (DecayLengthError, RuntimeError, ValueError, np.linalg.LinAlgError) as exc:
                     failed[rule].append(f"seed {args.seed + k}: {exc}")
                     continue
@@ -169,7 +155,7 @@ def default(args: argparse.Namespace) -> int:
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore")
                     fit = beta_of(sub, mu_s, d)
-                    row |= {"beta": fit["beta"], "beta_err": fit["beta_err"], "jackknife_err": jackknife_error(sub, mu_s, d),
+                    row |= {"beta": fit["beta"], "beta_err": fit["beta_err"], "jackknife_err": jackknife_error(sub, mu_s, d)[0],
                             "chi2_red": fit["chi2_reduced"], "delta_aic": fit["delta_aic"],
                             "mu/mu_s": f"{fit['mu_over_mu_s_min']:.2f}-{fit['mu_over_mu_s_max']:.2f}"}
             except (DecayLengthError, RuntimeError) as exc:

@@ -13,7 +13,8 @@ import pandas as pd
 from pipeline.report.html import table_html
 from pipeline.report.style import MODEL_STYLE
 
-FIT_COLUMNS = ["source", "windows", "n_windows", "beta", "beta_err", "C", "C_err", "chi2_reduced", "delta_chi2",
+FIT_COLUMNS = ["source", "windows", "n_windows", "beta", "beta_err", "beta_err_jackknife", "beta_half_width", "C",
+               "C_err", "chi2_reduced", "delta_chi2",
                "p_value_constant", "delta_aic", "preferred", "mu_over_mu_s_min", "mu_over_mu_s_max"]
 
 
@@ -39,7 +40,9 @@ def decay_length_section(root: Path, figures: Any) -> str:
     for f, style in zip(fits[fits.source == "dem"].itertuples(), ("-", "--")):
         if np.isfinite(getattr(f, "beta", np.nan)):
             ax.plot(x, (mu_s * (1 - x)) ** f.beta / f.C, color="grey", ls=style, lw=2, alpha=0.7,
-                    label=f"DEM fit ({f.windows}): beta = {f.beta:.2f} +- {f.beta_err:.2f}")
+                    label=f"DEM fit ({f.windows}): beta = {f.beta:.2f}"
+                          + (f", 95 % interval +- {f.beta_half_width:.2f}" if np.isfinite(getattr(f, "beta_half_width", np.nan))
+                             else f" +- {f.beta_err:.2f} (fit)"))
     ax.axhline(0.0, color="k", lw=0.5)
     if len(dem):
         # The DEM's own range: a fitted law with a negative exponent diverges at yield.

@@ -16,7 +16,7 @@ from scipy import stats
 from pipeline.common.config import load_config
 from pipeline.scoring import synthetic_creep as synthetic
 from pipeline.scoring.creep_windows import RULES, likelihood_slope
-from pipeline.scoring.decay_length import fit_law, scaled_windows
+from pipeline.scoring.decay_length import beta_interval, fit_law, scaled_windows
 
 REPO = Path(__file__).resolve().parents[3]
 
@@ -36,7 +36,8 @@ def scene(beds: tuple[str, ...], ageing: bool) -> synthetic.Scene:
 
 @functools.lru_cache(maxsize=None)
 def recovered(beta: float, beds: tuple[str, ...], ageing: bool, n: int) -> dict[str, np.ndarray]:
-    """(beta, stated error) recovered by each rule from ``n`` seeded realisations."""
+    """(beta, the fit's error, the 95 % interval's half width) recovered by each rule from ``n``
+    seeded realisations."""
     sc = scene(beds, ageing)
     law = synthetic.calibrated_law(beta, MU_S, sc)
     d = sc.material.d
@@ -48,12 +49,8 @@ def recovered(beta: float, beds: tuple[str, ...], ageing: bool, n: int) -> dict[
             for rule in RULES:
                 w, _, _ = scaled_windows(sets, MU_S, rule)
                 fit = fit_law(w.mu.values, w.slope.values * d, w.slope_err.values * d, w.mu_err.values, MU_S)
-                out[rule].append((fit["beta"], fit["beta_err"]))
+                out[rule].append((fit["beta"], fit["beta_err"], beta_interval(w, fit, MU_S, d)["beta_half_width"]))
     return {rule: np.asarray(rows) for rule, rows in out.items()}
-
-
-def covered(rows: np.ndarray, beta: float, z: float) -> int:
-    return int(np.sum(np.abs(rows[:, 0] - beta) < z * rows[:, 1]))
 
 
 @pytest.mark.parametrize("beta", [-0.5, -0.16, 0.0, 0.5])
@@ -111,20 +108,20 @@ def test_a_steady_creep_with_one_decay_length_is_read_without_bias(rule: str) ->
     assert abs(rows[:, 0].mean()) < 3.0 * rows[:, 0].std(ddof=1) / math.sqrt(len(rows)), rows[:, 0].mean()
 
 
-@pytest.mark.xfail(strict=True, reason="measured (docs/validation.md, 'Is the negative beta real?'): with mu's "
-                   "errors scaled by the replicas (2026-12-05) the chain is unbiased, but its stated error is still "
-                   "1.3-1.8 times short under the resolved rule and 1.4-2.1 under fixed_depth (the windows of one "
-                   "replica share its packing and its wall friction, and the fit counts them as independent): "
-                   "77 and 66 of 90 intervals cover the truth")
 @pytest.mark.parametrize("rule", RULES)
 def test_the_interval_covers_the_truth_at_its_stated_rate(rule: str) -> None:
     """Every noise term and the measured ageing (u ~ t^-0.5 below 6 d): over 30 seeded
     realisations of the calibration case's four replicas at each of beta = 0.5, 0 and the
-    default's -0.16, the fit's 95 % interval covers the true beta in 78 or more of the 90
-    (P = 0.05 % of fewer for a true 95 %)."""
-    hits = sum(covered(recovered(beta, ("shear_gravity",), True, 30)[rule], beta, stats.norm.ppf(0.975))
-               for beta in (0.5, 0.0, DEFAULT_BETA))
+    default's -0.16, beta's 95 % interval (decay_length.beta_interval: the replica jackknife
+    beside the fit's error) covers the true beta in 78 or more of the 90 (P = 0.05 % or less for a
+    true 95 %); the fit's own 1.96-sigma interval covered 77 and 66 (its windows counted as
+    independent). The interval is not bought by width alone: its median is under 2.5 times the
+    fit's 1.96 sigma (measured 1.7-1.9)."""
+    runs = {beta: recovered(beta, ("shear_gravity",), True, 30)[rule] for beta in (0.5, 0.0, DEFAULT_BETA)}
+    hits = sum(int(np.sum(np.abs(rows[:, 0] - beta) < rows[:, 2])) for beta, rows in runs.items())
     assert hits >= 78, hits
+    widths = np.concatenate([rows[:, 2] / (stats.norm.ppf(0.975) * rows[:, 1]) for rows in runs.values()])
+    assert np.median(widths) < 2.5, np.median(widths)
 
 
 def test_no_true_beta_at_zero_or_above_reads_as_the_defaults() -> None:
