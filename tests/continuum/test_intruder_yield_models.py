@@ -147,3 +147,29 @@ def test_a_state_of_another_bed_on_another_grid_is_no_start() -> None:
     started = intruder_speed("local_mu_i", geo, LOCAL, rod, 8 * D, GridOptions(cells_per_d=2), warm=other)
     assert other.state["u"].size != cold.state["u"].size
     assert started.speed == cold.speed and started.iterations == cold.iterations
+
+
+def test_a_stage_that_makes_no_progress_stops_at_the_stall_window(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A Newton stage whose residual does not halve in STALL_ITERATIONS iterations raises a
+    ConvergenceError naming the stall after STALL_ITERATIONS + 1 residuals, not after MAX_NEWTON
+    (a linear solve that returns no step: the residual stays where it is)."""
+    from continuum.intruder import yield2d
+
+    solver = CriticalStateRodSolver(GEO, CS, NARROW, None, GridOptions(cells_per_d=2), regularisations=(1e-1,))
+    planar = solver.planar_solution()
+    disc = solver._discretisation()
+    evaluations = []
+    real = solver._evaluate
+
+    def counted(y, disc_, eps, jacobian):
+        if jacobian:
+            evaluations.append(eps)
+        return real(y, disc_, eps, jacobian)
+
+    monkeypatch.setattr(solver, "_evaluate", counted)
+    monkeypatch.setattr(solver, "_linear_solve", lambda jac, rhs, res, eps: np.zeros_like(rhs))
+    y0 = solver._initial(planar, disc)
+    y0[: solver.grid.n_cells] *= 0.5  # far from the band's solution: a residual above the floor
+    with pytest.raises(continuum.ConvergenceError, match="stalled"):
+        solver._newton(y0, disc, 1e-1)
+    assert len(evaluations) == yield2d.STALL_ITERATIONS + 1 < yield2d.MAX_NEWTON
