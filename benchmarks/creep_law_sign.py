@@ -38,15 +38,15 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from pipeline.common.config import load_config  # noqa: E402
 from pipeline.scoring import synthetic_creep as synthetic  # noqa: E402
-from pipeline.scoring.decay_length import (BAND_EDGE, RULES, DecayLengthError, fit_law, jackknife_error,  # noqa: E402
-                                           scaled_windows, select_model)
+from pipeline.scoring.decay_length import (BAND_EDGE, RULES, DecayLengthError, fit_windows,  # noqa: E402
+                                           jackknife_error, scaled_windows, select_model)
 
 CASES = ("shear_gravity", "shear_gravity_fast", "shear_gravity_heavy")
 
 
 def beta_of(windows: pd.DataFrame, mu_s: float, d: float) -> dict[str, float]:
     """The law's fit on ``windows`` (the workflow's, :func:`fit_law`) with the model selection."""
-    fit = fit_law(windows.mu.values, windows.slope.values * d, windows.slope_err.values * d, windows.mu_err.values, mu_s)
+    fit = fit_windows(windows, mu_s, d)
     return fit | {"delta_aic": select_model(windows, mu_s, d)["delta_aic"]}
 
 
@@ -98,8 +98,7 @@ def coverage(args: argparse.Namespace) -> int:
             for rule in RULES:
                 windows, scale, _ = scaled_windows(sets, args.mu_s, rule)
                 try:
-                    fit = fit_law(windows.mu.values, windows.slope.values * d, windows.slope_err.values * d,
-                                  windows.mu_err.values, args.mu_s)
+                    fit = fit_windows(windows, args.mu_s, d)
                     jk = jackknife_error(windows, args.mu_s, d)[0] if args.jackknife else math.nan
                 except (DecayLengthError, RuntimeError, ValueError, np.linalg.LinAlgError) as exc:
                     failed[rule].append(f"seed {args.seed + k}: {exc}")

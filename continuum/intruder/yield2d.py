@@ -219,13 +219,13 @@ class YieldRodSolver(RodSolver):
             res = float(np.max(np.abs(r)))
             if res < RESIDUAL_TOL and step < STEP_TOL:
                 return y, it - 1, res, step
-            best.append(min(float(np.linalg.norm(r)), best[-1] if best else np.inf))
+            norm0 = float(np.linalg.norm(r))
+            best.append(min(norm0, best[-1] if best else np.inf))
             if (stall and len(best) > STALL_ITERATIONS and best[-1] > STALL_FLOOR
                     and best[-1] > STALL_FACTOR * best[-1 - STALL_ITERATIONS]):
                 raise ConvergenceError(self.model, res, f"Newton stalled at eps = {eps_rel:g} V/d (residual norm "
                                        f"{best[-1]:.2g}, not halved in {STALL_ITERATIONS} iterations)", self.case)
             dy = self._linear_solve(ev["jacobian"], -r, res, eps_rel)
-            norm0 = float(np.linalg.norm(r))
             # A trust region on the velocities (the rod's included): at small eps the Jacobian of
             # a rod carried near V is so ill-conditioned that a full step can throw U to 1e3 V
             # while the residual, bounded by the yield stress, still falls.

@@ -198,6 +198,13 @@ def fit_law(mu: np.ndarray, slope_d: np.ndarray, slope_err_d: np.ndarray | None,
             "mu_over_mu_s_min": float(mu[below].min() / mu_s), "mu_over_mu_s_max": float(mu[below].max() / mu_s)}
 
 
+def fit_windows(windows: pd.DataFrame, mu_s: float, d: float, side: str = "below",
+                beta_fixed: float | None = None) -> dict[str, float]:
+    """:func:`fit_law` on a DEM windows table (columns mu, slope, slope_err, mu_err; slopes in m-1)."""
+    return fit_law(windows.mu.values, windows.slope.values * d, windows.slope_err.values * d, windows.mu_err.values,
+                   mu_s, beta_fixed=beta_fixed, side=side)
+
+
 def jackknife_error(windows: pd.DataFrame, mu_s: float, d: float, side: str = "below") -> tuple[float, int]:
     """Leave-one-run-out jackknife standard error of beta over the (case, run) groups of
     ``windows`` (columns mu, slope, slope_err, mu_err; slopes in m-1), and the number of groups
@@ -207,10 +214,8 @@ def jackknife_error(windows: pd.DataFrame, mu_s: float, d: float, side: str = "b
         return math.nan, len(runs)
     betas = []
     for case, run in runs:
-        keep = ~((windows.case == case) & (windows.run == run)).to_numpy()
         try:
-            betas.append(fit_law(windows.mu.values[keep], windows.slope.values[keep] * d,
-                                 windows.slope_err.values[keep] * d, windows.mu_err.values[keep], mu_s, side=side)["beta"])
+            betas.append(fit_windows(windows[~((windows.case == case) & (windows.run == run))], mu_s, d, side)["beta"])
         except (DecayLengthError, RuntimeError):
             return math.nan, len(runs)
     b = np.asarray(betas)
@@ -232,9 +237,8 @@ def select_model(windows: pd.DataFrame, mu_s: float, d: float) -> dict[str, floa
     """xi constant against the power law on the same windows: chi2 difference and its p-value
     (likelihood ratio, one degree of freedom), AIC of each (chi2 + 2 k) and their difference
     (positive: the power law is preferred)."""
-    args = (windows.mu.values, windows.slope.values * d, windows.slope_err.values * d, windows.mu_err.values, mu_s)
-    power = fit_law(*args)
-    constant = fit_law(*args, beta_fixed=0.0)
+    power = fit_windows(windows, mu_s, d)
+    constant = fit_windows(windows, mu_s, d, beta_fixed=0.0)
     delta = constant["chi2"] - power["chi2"]
     return {"chi2_constant": constant["chi2"], "chi2_power": power["chi2"], "delta_chi2": delta,
             "p_value_constant": float(stats.chi2.sf(max(delta, 0.0), 1)),
@@ -286,7 +290,7 @@ def fits_table(dem: pd.DataFrame, models: pd.DataFrame, mu_s: float, d: float) -
         sub = dem[dem.u_over_V < limit]
         base = {"windows": cut, "n_windows": len(sub)}
         try:
-            fit = fit_law(sub.mu.values, sub.slope.values * d, sub.slope_err.values * d, sub.mu_err.values, mu_s)
+            fit = fit_windows(sub, mu_s, d)
             rows.append({"source": "dem", **base, **fit, **beta_interval(sub, fit, mu_s, d), **select_model(sub, mu_s, d)})
         except (DecayLengthError, RuntimeError) as exc:
             rows.append({"source": "dem", **base, "note": str(exc)})
@@ -294,8 +298,7 @@ def fits_table(dem: pd.DataFrame, models: pd.DataFrame, mu_s: float, d: float) -
             # The band side, where the creep windows reach above mu_s.
             above = sub[sub.mu > mu_s]
             try:
-                fit = fit_law(above.mu.values, above.slope.values * d, above.slope_err.values * d,
-                              above.mu_err.values, mu_s, side="above")
+                fit = fit_windows(above, mu_s, d, side="above")
                 rows.append({"source": "dem", "windows": "above yield", "n_windows": len(above), **fit,
                              **beta_interval(above, fit, mu_s, d, side="above")})
             except (DecayLengthError, RuntimeError) as exc:

@@ -51,18 +51,22 @@ def slope(push: np.ndarray, log_speed: np.ndarray) -> float:
     return float(np.polyfit(push[ok], log_speed[ok], 1)[0]) if ok.sum() >= 2 else math.nan
 
 
+def push_index(model_pushes: np.ndarray, push: float, among: np.ndarray | None = None) -> int | None:
+    """Index of the first of ``model_pushes`` (F / F_y; only where ``among`` is True) within 1e-6
+    of ``push``, or None. A lookup, not an interpolation: the model's pushes are the DEM runs' own
+    (run.json's ``push_over_yield``, 0.8999999999999999 where the DEM's groups round it to 0.9), and
+    a speed between two pushes is no scene either of them solved."""
+    match = np.isclose(np.asarray(model_pushes, dtype=float), push, rtol=0.0, atol=1e-6)
+    hits = np.flatnonzero(match if among is None else match & among)
+    return int(hits[0]) if hits.size else None
+
+
 def at_pushes(model_pushes: np.ndarray, model_speeds: np.ndarray, pushes: np.ndarray) -> np.ndarray:
-    """The model's speed (m s-1) at each of the DEM's ``pushes`` (F / F_y), NaN where the model's file
-    has no scene within 1e-6 of it. A lookup, not an interpolation: the model's pushes are the DEM
-    runs' own (run.json's ``push_over_yield``, 0.8999999999999999 where the DEM's groups round it to
-    0.9), and a speed between two pushes is no scene either of them solved."""
-    model_pushes = np.asarray(model_pushes, dtype=float)
-    out = np.full(np.shape(pushes), np.nan)
-    for k, p in enumerate(np.asarray(pushes, dtype=float)):
-        match = np.flatnonzero(np.isclose(model_pushes, p, rtol=0.0, atol=1e-6))
-        if match.size:
-            out[k] = float(np.asarray(model_speeds, dtype=float)[match[0]])
-    return out
+    """The model's speed (m s-1) at each of the DEM's ``pushes`` (:func:`push_index`), NaN where
+    the model's file has no scene there."""
+    speeds = np.asarray(model_speeds, dtype=float)
+    return np.array([speeds[j] if j is not None else np.nan
+                     for j in (push_index(model_pushes, p) for p in np.asarray(pushes, dtype=float))])
 
 
 def _log(u: np.ndarray) -> np.ndarray:
@@ -114,8 +118,7 @@ def score_force_sweep(runs: list[dict], model_files: dict[str, Path], draw_files
         if draw_files and model in draw_files:
             with xr.open_dataset(draw_files[model]) as ens:
                 sweep = ens["force_sweep"].values.astype(bool)
-                first = [int(np.nonzero(sweep & np.isclose(ens["push_over_yield"].values, p, atol=1e-6))[0][0])
-                         if (sweep & np.isclose(ens["push_over_yield"].values, p, atol=1e-6)).any() else None for p in pushes]
+                first = [push_index(ens["push_over_yield"].values, p, among=sweep) for p in pushes]
                 draws_log = np.array([[float(_log(ens["speed"].values[k, j])) if j is not None else np.nan for j in first]
                                       for k in range(ens.sizes["draw"])])
                 refined_log = np.array([float(_log(ens["speed_refined"].values[j])) if j is not None else np.nan for j in first])
