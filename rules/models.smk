@@ -36,12 +36,11 @@ rule intruder_model:
     input:
         config=CONFIG_JSON,
         params=f"{ROOT}/calibration/params.json",
-        draws=f"{ROOT}/calibration/draws.json",
         runs=intruder_runs,
         fields=case_fields,
     output:
         solution=f"{ROOT}/models/{{case}}/{{model}}.nc",
-        draws=f"{ROOT}/model_draws/{{case}}/{{model}}.nc",
+        states=f"{ROOT}/models/{{case}}/{{model}}.states.npz",
     wildcard_constraints:
         case="|".join(layout.intruder_cases(config)) or "no_intruder_case",
         model="|".join(layout.INTRUDER_MODELS),
@@ -52,4 +51,92 @@ rule intruder_model:
     shell:
         "python -m pipeline.models intruder --config {input.config} --params {input.params} "
         "--model {wildcards.model} --runs {input.runs} --fields {input.fields} --out {output.solution} "
-        "--draws {input.draws} --draws-out {output.draws} > {log} 2>&1"
+        "--states-out {output.states} > {log} 2>&1"
+
+
+# The draws and the grid study start from the nominal states, so they run as jobs of their own
+# (models.intruder_draw_jobs parts of the draws, and the finer grid), merged into one file.
+rule intruder_model_draws:
+    priority: targets.AFTER_DEM_PRIORITY
+    message:
+        "Model {wildcards.model}: intruder draws, part {wildcards.k} of {wildcards.n}"
+    conda:
+        ENV
+    input:
+        config=CONFIG_JSON,
+        params=f"{ROOT}/calibration/params.json",
+        draws=f"{ROOT}/calibration/draws.json",
+        runs=intruder_runs,
+        fields=case_fields,
+        states=f"{ROOT}/models/{{case}}/{{model}}.states.npz",
+    output:
+        f"{ROOT}/model_draws/{{case}}/parts/{{model}}/draws-{{k}}-of-{{n}}.nc",
+    wildcard_constraints:
+        case="|".join(layout.intruder_cases(config)) or "no_intruder_case",
+        model="|".join(layout.INTRUDER_MODELS),
+        k="[0-9]+",
+        n="[0-9]+",
+    log:
+        f"{ROOT}/logs/model_draws/{{case}}/{{model}}/draws-{{k}}-of-{{n}}.log",
+    benchmark:
+        f"{ROOT}/benchmarks/model_draws/{{case}}/{{model}}/draws-{{k}}-of-{{n}}.tsv"
+    shell:
+        "python -m pipeline.models intruder-draws draws --config {input.config} --params {input.params} "
+        "--model {wildcards.model} --runs {input.runs} --fields {input.fields} --states {input.states} "
+        "--draws {input.draws} --part {wildcards.k}/{wildcards.n} --out {output} > {log} 2>&1"
+
+
+rule intruder_model_refined:
+    priority: targets.AFTER_DEM_PRIORITY
+    message:
+        "Model {wildcards.model}: intruder grid study"
+    conda:
+        ENV
+    input:
+        config=CONFIG_JSON,
+        params=f"{ROOT}/calibration/params.json",
+        runs=intruder_runs,
+        fields=case_fields,
+        states=f"{ROOT}/models/{{case}}/{{model}}.states.npz",
+    output:
+        f"{ROOT}/model_draws/{{case}}/parts/{{model}}/refined.nc",
+    wildcard_constraints:
+        case="|".join(layout.intruder_cases(config)) or "no_intruder_case",
+        model="|".join(layout.INTRUDER_MODELS),
+    log:
+        f"{ROOT}/logs/model_draws/{{case}}/{{model}}/refined.log",
+    benchmark:
+        f"{ROOT}/benchmarks/model_draws/{{case}}/{{model}}/refined.tsv"
+    shell:
+        "python -m pipeline.models intruder-draws refined --config {input.config} --params {input.params} "
+        "--model {wildcards.model} --runs {input.runs} --fields {input.fields} --states {input.states} "
+        "--out {output} > {log} 2>&1"
+
+
+rule intruder_model_draws_merge:
+    priority: targets.AFTER_DEM_PRIORITY
+    message:
+        "Model {wildcards.model}: intruder draws and grid study into one file"
+    conda:
+        ENV
+    input:
+        config=CONFIG_JSON,
+        params=f"{ROOT}/calibration/params.json",
+        draws=f"{ROOT}/calibration/draws.json",
+        runs=intruder_runs,
+        fields=case_fields,
+        states=f"{ROOT}/models/{{case}}/{{model}}.states.npz",
+        parts=lambda wildcards: layout.intruder_draw_part_paths(config, wildcards.case, wildcards.model),
+    output:
+        f"{ROOT}/model_draws/{{case}}/{{model}}.nc",
+    wildcard_constraints:
+        case="|".join(layout.intruder_cases(config)) or "no_intruder_case",
+        model="|".join(layout.INTRUDER_MODELS),
+    log:
+        f"{ROOT}/logs/model_draws/{{case}}/{{model}}.log",
+    benchmark:
+        f"{ROOT}/benchmarks/model_draws/{{case}}/{{model}}.tsv"
+    shell:
+        "python -m pipeline.models intruder-draws merge --config {input.config} --params {input.params} "
+        "--model {wildcards.model} --runs {input.runs} --fields {input.fields} --states {input.states} "
+        "--draws {input.draws} --parts {input.parts} --out {output} > {log} 2>&1"

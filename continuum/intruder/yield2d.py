@@ -274,6 +274,11 @@ class YieldRodSolver(RodSolver):
             first = max(len(stages) - REGRID_STAGES, 0)
         elif usable:
             first = max(len(stages) - 2, 0)  # two stages: the limit is read from their U
+            previous = warm.get("y_previous_stage")
+            if previous is not None and previous.size == disc.n and first < len(stages) - 1:
+                # the warm solution's own state at this first stage's eps: the draw's first stage
+                # then starts at its own regularisation, not from the sharper last one
+                return previous.copy(), stages[first:]
         else:
             return self._initial(planar, disc), stages
         y = np.concatenate([warm["u"], warm["w"], warm["pi"], warm["U"][:1] if disc.has_rod else []])
@@ -293,7 +298,7 @@ class YieldRodSolver(RodSolver):
         started_warm = len(stages) < len(self.regularisations)
         by_eps: dict[float, float] = {}
         iterations, res, step = 0, np.nan, np.nan
-        y_last = y
+        y_last = y_previous = y
         for k, eps_rel in enumerate(stages):
             try:
                 # The stall rule only where a failure has a cheaper way on (a halved eps step, or a
@@ -309,7 +314,7 @@ class YieldRodSolver(RodSolver):
                     y, its, res, step = self._refine_stage(y_last, disc, stages[k - 1], eps_rel, 2)
                     iterations += its
                     by_eps[eps_rel] = float(y[-1]) if disc.has_rod else float("nan")
-                    y_last = y
+                    y_previous, y_last = y_last, y
                     continue
                 if not disc.has_rod or self.driven_speed is not None or started_warm:
                     raise  # (a warm start's failure: the caller restarts cold, no ramp in F from a guess)
@@ -321,7 +326,7 @@ class YieldRodSolver(RodSolver):
                     its += n
             iterations += its
             by_eps[eps_rel] = float(y[-1]) if disc.has_rod else float("nan")
-            y_last = y
+            y_previous, y_last = y_last, y
         ev = self._evaluate(y, disc, stages[-1], False)
         flow = self._flow(y, ev, disc)
         p_min = float(flow.p[self.material].min())
@@ -354,6 +359,8 @@ class YieldRodSolver(RodSolver):
         state = {"u": y[:nc].copy(), "w": y[nc:nc + nw].copy(), "pi": y[nc + nw:2 * nc + nw].copy(),
                  "U": np.array([y[-1] if disc.has_rod else np.nan]),
                  "grid": np.array([self.grid.nx, self.grid.nz, self.grid.hx, self.grid.hz])}
+        if len(stages) >= 2:
+            state["y_previous_stage"] = y_previous.copy()  # the solution at stages[-2] (warm starts)
         return RodSolution(self.model, speed, True, iterations, residuals, time.perf_counter() - t0,
                            self.grid.n_cells, flow, state, self._dataset(flow, {}), planar, planar_seconds, attrs)
 

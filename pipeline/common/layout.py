@@ -106,6 +106,20 @@ def intruder_model_paths(config: dict[str, Any]) -> list[str]:
             for model in model_names(config) if model in INTRUDER_MODELS]
 
 
+def intruder_draw_jobs(config: dict[str, Any]) -> int:
+    """Jobs the parameter draws of each intruder model are split into (``models.intruder_draw_jobs``;
+    absent: one)."""
+    return int((config.get("models") or {}).get("intruder_draw_jobs", 1))
+
+
+def intruder_draw_part_paths(config: dict[str, Any], case: str, model: str) -> list[str]:
+    """``model_draws/{case}/parts/{model}/draws-{k}-of-{n}.nc`` for every part, then the grid
+    study's ``refined.nc``: what ``model_draws/{case}/{model}.nc`` is merged from."""
+    n = intruder_draw_jobs(config)
+    folder = root(config) / "model_draws" / case / "parts" / model
+    return [str(folder / f"draws-{k}-of-{n}.nc") for k in range(1, n + 1)] + [str(folder / "refined.nc")]
+
+
 def intruder_model_draw_paths(config: dict[str, Any]) -> list[str]:
     """``model_draws/{case}/{model}.nc`` of the intruder cases."""
     return [str(root(config) / "model_draws" / case / f"{model}.nc") for case in intruder_cases(config)

@@ -1,5 +1,6 @@
-"""Each model's intruder speed at the DEM's depths and pushes: ``models/intruder/{model}.nc`` and,
-per parameter draw, ``model_draws/intruder/{model}.nc``.
+"""Each model's intruder speed at the DEM's depths and pushes: ``models/intruder/{model}.nc``, with
+its converged 2D states beside it (``--states-out``: the warm starts of the draws and the grid
+study, ``pipeline.models.intruder_draws``, which write ``model_draws/intruder/{model}.nc``).
 
 One scene per target depth and push (the first replica's run: the replicas' scenes differ by a
 fraction of a grain in depth): the geometry from its fields file (wall-to-wall depth, load,
@@ -19,8 +20,9 @@ of its solves started from the nominal solution carried onto the finer grid wher
 (the yield-stress models). A scene the nominal parameters give no speed for is solved by neither
 the draws nor the grid study (``NOMINAL_REFUSED``).
 
-Usage: ``python -m pipeline.models.intruder --config C --params params.json --model ngf
---runs RESULTS/dem/intruder/D5-r1/run.json ... --fields RESULTS/fields/intruder/D5-r1.nc ... --out F.nc``
+Usage: ``python -m pipeline.models intruder --config C --params params.json --model ngf
+--runs RESULTS/dem/intruder/D5-r1/run.json ... --fields RESULTS/fields/intruder/D5-r1.nc ... --out F.nc
+--states-out F.states.npz``
 """
 from __future__ import annotations
 
@@ -238,75 +240,6 @@ def predict(model: str, params: dict[str, Any], runs: list[dict[str, Any]], fiel
     return out, results
 
 
-def predict_draws(model: str, params: dict[str, Any], ensemble: dict[str, Any], runs: list[dict[str, Any]],
-                  fields: list[xr.Dataset], n_draws: int, nominal: list[IntruderSpeed | None] | None = None,
-                  cells_per_d: float = CELLS_PER_D, refined_cells_per_d: float = REFINED_CELLS_PER_D,
-                  draws_cells_per_d: float = DRAWS_CELLS_PER_D) -> xr.Dataset:
-    """The rod speed of each scene for the first ``n_draws`` parameter draws (dims ``draw``,
-    ``run``; NaN where the model refuses the scene or the draw has no parameters for it) on
-    ``draws_cells_per_d``, each draw's solve warm-started from the nominal parameters' solution of
-    its scene (``nominal``, ``predict``'s results on ``cells_per_d``, or solved here on the draws'
-    grid when that differs); and, with the calibration's values, on the grid study's finer grid
-    (``speed_refined``: u_num)."""
-    scenes = scenes_of(runs, fields, params)
-    if draws_cells_per_d != cells_per_d or nominal is None:
-        nominal, _ = solve_scenes(model, model_parameters(params, model), scenes, draws_cells_per_d)
-    predicted = [r is not None for r in nominal]
-    draws = ensemble["draws"][:n_draws]
-    speed = np.full((len(draws), len(scenes)), np.nan)
-    refused = np.zeros((len(draws), len(scenes)), dtype=np.int8)
-    iterations = np.zeros((len(draws), len(scenes)), dtype=np.int64)
-    seconds = np.zeros((len(draws), len(scenes)))
-    failures: dict[int, str] = {}
-    t0 = time.perf_counter()
-    for k, draw in enumerate(draws):
-        if model in draw.get("failed", {}):
-            failures[k] = draw["failed"][model]
-            continue
-        drawn = params_of_draw(params, draw)
-        parameters = model_parameters(drawn, model)
-        results, reasons = solve_scenes(model, parameters, scenes, draws_cells_per_d, nominal, predicted)
-        for j, (result, reason) in enumerate(zip(results, reasons)):
-            if result is None:
-                refused[k, j] = 1
-                if reason != NOMINAL_REFUSED:
-                    failures.setdefault(k, reason[:300])
-            else:
-                speed[k, j] = result.speed
-                iterations[k, j] = result.iterations
-                seconds[k, j] = result.solve_seconds
-    draws_seconds = time.perf_counter() - t0
-    t1 = time.perf_counter()
-    # The finer grid starts from the nominal solution carried onto it (the solvers that can:
-    # continuum.intruder.regrid; measured on a 14 d bed, 2 -> 3 cells per d: the same U to
-    # round-off in about half the CPU time of a cold solve, for critical state and mu(I)).
-    refined_results, _ = solve_scenes(model, model_parameters(params, model), scenes, refined_cells_per_d,
-                                      warm=nominal, only=predicted)
-    refined = np.array([r.speed if r is not None else np.nan for r in refined_results])
-    refined_seconds = time.perf_counter() - t1
-    out = xr.Dataset(coords={"draw": ("draw", np.arange(len(draws)), {"units": "1", "long_name": "parameter draw"}),
-                             "run": ("run", [s.run["run"] for s in scenes], {"long_name": "sheared intruder run"})})
-    out["depth_over_d"] = ("run", np.array([s.depth_over_d for s in scenes], dtype=float),
-                           {"units": "1", "long_name": "rod axis below the top wall, in d"})
-    out["push_over_yield"] = ("run", np.array([s.push_over_yield for s in scenes], dtype=float),
-                              {"units": "1", "long_name": "push over the yield force at the rod's depth"})
-    out["force_sweep"] = ("run", np.array([int(s.force_sweep) for s in scenes], dtype=np.int8),
-                          {"units": "1", "long_name": "1 for a run of the force sweep"})
-    out["speed"] = (("draw", "run"), speed, {"units": "m s-1", "long_name": "steady rod speed along +x, per draw"})
-    out["refused"] = (("draw", "run"), refused, {"units": "1", "long_name": "1 where the draw has no speed: refused, not converged, or not solved because the calibration's parameters have none there"})
-    out["iterations"] = (("draw", "run"), iterations,
-                         {"units": "1", "long_name": "fixed-point map evaluations of the draw's 2D solve (warm start)"})
-    out["solve_seconds"] = (("draw", "run"), seconds, {"units": "s", "long_name": "solve time of the draw's scene"})
-    out["speed_refined"] = ("run", refined, {"units": "m s-1",
-                                             "long_name": f"calibration's values, {refined_cells_per_d:g} cells per d"})
-    out.attrs.update({"model": model, "case": "intruder", "n_draws": len(draws), "cells_per_d": draws_cells_per_d,
-                      "cells_per_d_nominal": cells_per_d,
-                      "cells_per_d_refined": refined_cells_per_d, "failures": json.dumps(failures),
-                      "draws_seed": int(ensemble.get("seed", -1)), "draws_seconds": draws_seconds,
-                      "refined_seconds": refined_seconds, "warm_start": int(nominal is not None)})
-    return out
-
-
 def intruder_draws(config: dict[str, Any], model: str) -> int:
     """Parameter draws solved for ``model``: ``models.intruder_plastic_draws`` for the 2D plastic
     solvers (regularised yield-stress solves, tens of CPU seconds each: measured 2026-12-04),
@@ -318,6 +251,13 @@ def intruder_draws(config: dict[str, Any], model: str) -> int:
     return int(models.get("intruder_draws", DEFAULT_INTRUDER_DRAWS))
 
 
+def pushed_runs(run_paths: list[Path], field_paths: list[Path]) -> tuple[list[dict[str, Any]], list[xr.Dataset]]:
+    """The run records and fields of the pushed rods (the controls have no scene)."""
+    records = [json.loads(p.read_text()) for p in run_paths]
+    pairs = [(r, open_fields(f)) for r, f in zip(records, field_paths, strict=True) if not r["intruder"]["control"]]
+    return [r for r, _ in pairs], [f for _, f in pairs]
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description="Each model's intruder speed at the DEM's depths.")
     parser.add_argument("--config", required=True)
@@ -326,24 +266,18 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--runs", nargs="+", required=True, type=Path, help="run.json of the intruder runs")
     parser.add_argument("--fields", nargs="+", required=True, type=Path, help="their fields files, same order")
     parser.add_argument("--out", required=True, type=Path)
-    parser.add_argument("--draws", type=Path, help="calibration/draws.json: also solve the first N draws")
-    parser.add_argument("--draws-out", type=Path, help="where the draws' speeds go (model_draws/intruder/MODEL.nc)")
+    parser.add_argument("--states-out", type=Path, help="the converged 2D states (warm starts of "
+                        "`python -m pipeline.models intruder-draws`), e.g. models/intruder/MODEL.states.npz")
     args = parser.parse_args(argv)
-    if (args.draws is None) != (args.draws_out is None):
-        parser.error("--draws and --draws-out go together")
     config = load_config(args.config)
     params = json.loads(args.params.read_text())
-    records = [json.loads(p.read_text()) for p in args.runs]
-    pairs = [(r, open_fields(f)) for r, f in zip(records, args.fields, strict=True) if not r["intruder"]["control"]]
+    runs, fields = pushed_runs(args.runs, args.fields)
     t0 = time.perf_counter()
-    result, nominal = predict(args.model, params, [r for r, _ in pairs], [f for _, f in pairs])
+    result, nominal = predict(args.model, params, runs, fields)
     result.attrs.update(provenance_attrs(config))
-    if args.draws is not None:
-        n_draws = intruder_draws(config, args.model)
-        ensemble = predict_draws(args.model, params, json.loads(args.draws.read_text()), [r for r, _ in pairs],
-                                 [f for _, f in pairs], n_draws, nominal)
-        ensemble.attrs.update(provenance_attrs(config))
-        atomic.write_netcdf(ensemble, args.draws_out)
+    if args.states_out is not None:
+        from pipeline.models.intruder_draws import save_states  # (that module builds on this one)
+        save_states(nominal, args.states_out, args.model, CELLS_PER_D)
     atomic.write_netcdf(result, args.out)
     print(f"{args.model}: speeds {result.speed.values} m/s at depths {result.depth_over_d.values} d; "
           + (f"force sweep {result.sweep_speed.values} m/s at {result.push_over_yield.values} F_y; " if "sweep_speed" in result else "")

@@ -13,7 +13,8 @@ with ``seconds`` the DEM cost model :func:`estimated_seconds` (particle-steps fr
 cell, grains, wall speed, time step and strains, over :data:`PARTICLE_STEPS_PER_SECOND`) and
 ``tail`` the work after the DEM on the way to the report (:data:`TAIL_SECONDS`: the calibration
 set's runs feed the calibration, the draws and every model; a held-out run its fields, its models
-and the scores). The long replicas of the calibration case then start first, the chains of
+and the scores; the calibration set's and the intruder's runs also the intruder's 2D model
+stage, :data:`INTRUDER_MODEL_SECONDS`). The long replicas of the calibration case then start first, the chains of
 continued rheometer states and the beds that several rods wait for next, and the short rods last,
 where they fill the slots to the end. The non-DEM rules run as soon as they are ready
 (:data:`AFTER_DEM_PRIORITY`, above every DEM rank): each is short, and they are the tail.
@@ -37,6 +38,13 @@ PARTICLE_STEPS_PER_SECOND = 4.5e6
 #: models and the scores (the 2026-12-03 default: about 100 s of calibration, draws, models, scores
 #: and report after the last DEM, docs/dem_cost.md section 15).
 TAIL_SECONDS = {"calibration": 200.0, "held_out": 100.0}
+#: Seconds of the intruder's 2D model stage on its longest chain: the slowest model's nominal
+#: solves, then one part of its draws (``models.intruder_draw_jobs``). Measured 2026-12-05 on the
+#: default (volume-averaged, alone on a core): about 250 CPU s nominal, 8 draws x 6 scenes at about
+#: 30 s, so about 700 s per part of two. The intruder's rods and, before them, the calibration
+#: (every intruder model needs its parameters) carry it in their tail, so they run before the
+#: held-out planar cases' short replicas, which then fill the slots beside the model stage.
+INTRUDER_MODEL_SECONDS = 1000.0
 #: Priority of every rule after the DEM (above any DEM rank): they are short and are the tail.
 AFTER_DEM_PRIORITY = 1_000_000
 #: Solid fraction of a settled bed (the gap estimate) and of the fill's loose pour.
@@ -125,6 +133,9 @@ def upward_rank(config: dict[str, Any], case_name: str, job: str) -> float:
     """Estimated seconds from the start of DEM job ``job`` to the report along its longest chain."""
     calibration = {c for c, _ in calibration_runs(config)}
     tail = TAIL_SECONDS["calibration" if case_name in calibration else "held_out"]
+    intruders = [c for c, spec in config["cases"].items() if spec["geometry"] == "intruder"]
+    if intruders and (case_name in calibration or case_name in intruders):
+        tail += INTRUDER_MODEL_SECONDS
 
     @lru_cache(maxsize=None)
     def rank(name: str) -> float:

@@ -9,7 +9,9 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from pipeline.models.intruder import predict, predict_draws, scenes_of
+from pipeline.models.intruder import predict, scenes_of
+from pipeline.models.intruder_draws import (draw_parts, load_states, merge, predict_draws, save_states, solve_draws,
+                                           solve_refined)
 
 D = 0.002
 MU = {"mu_s": 0.374, "mu_2": 1.023, "I_0": 0.637, "nu_c": 0.587, "a": 0.141}
@@ -98,3 +100,36 @@ def test_a_scene_without_a_nominal_prediction_is_not_solved_for_draws_or_grid(so
     assert np.isnan(ens.speed.values[0, 1]) and ens.refused.values[0, 1] == 1
     assert np.isnan(ens.speed_refined.values[1]) and json.loads(ens.attrs["failures"]) == {}
     assert np.all(np.isfinite(ens.speed.values[0, [0, 2]])) and np.all(np.isfinite(ens.speed_refined.values[[0, 2]]))
+
+
+def test_draw_parts_cover_every_draw_once() -> None:
+    assert draw_parts(8, 2) == [[0, 1, 2, 3], [4, 5, 6, 7]]
+    assert sum(draw_parts(5, 3), []) == [0, 1, 2, 3, 4] and [len(p) for p in draw_parts(5, 3)] == [2, 2, 1]
+
+
+def test_the_draws_in_parts_from_stored_states_equal_one_job(solved, tmp_path) -> None:
+    """The split jobs (issue 45): the nominal states through their file, the draws in two parts and
+    the grid study apart, merged, give the one-call file's speeds to the last bit (the same warm
+    starts, the same solves), the draws in order and a scene without a nominal speed unsolved."""
+    _, results = solved
+    nominal = [results[0], None, results[2]]
+    draws = [{"values": dict(MU, mu_s=mu_s), "sigma_zz_over_p": 1.058, "nonlocal": {"ngf": {"A": 0.327}}}
+             for mu_s in (0.372, 0.374, 0.376)]
+    ensemble = {"draws": draws, "seed": 7}
+    one = predict_draws("ngf", PARAMS, ensemble, RUNS, [fields()] * len(RUNS), 3, nominal,
+                        cells_per_d=2.0, refined_cells_per_d=3.0, draws_cells_per_d=2.0)
+    path = tmp_path / "ngf.states.npz"
+    save_states(nominal, path, "ngf", 2.0)
+    warm, cells = load_states(path, "ngf", 3)
+    assert cells == 2.0 and warm[1] is None
+    assert all(np.array_equal(warm[0].state[k], nominal[0].state[k]) for k in nominal[0].state)
+    scenes = scenes_of(RUNS, [fields()] * len(RUNS), PARAMS)
+    parts = [solve_draws("ngf", PARAMS, ensemble, scenes, idx, warm, 2.0) for idx in reversed(draw_parts(3, 2))]
+    split = merge("ngf", scenes, parts, solve_refined("ngf", PARAMS, scenes, warm, 3.0), 2.0, 7, True)
+    assert list(split.draw.values) == [0, 1, 2]
+    np.testing.assert_array_equal(split.speed.values, one.speed.values)
+    np.testing.assert_array_equal(split.speed_refined.values, one.speed_refined.values)
+    np.testing.assert_array_equal(split.refused.values, one.refused.values)
+    assert split.attrs["draws_parts"] == 2 and split.attrs["draws_seed"] == 7
+    with pytest.raises(ValueError, match="ngf.states.npz: states of ngf for 3 scenes, not of local_mu_i"):
+        load_states(path, "local_mu_i", 3)

@@ -53,3 +53,13 @@ def test_the_estimate_follows_the_steps_per_strain() -> None:
     slow = estimated_seconds(config, "shear_gravity_fast", "r1") - fill
     fast = estimated_seconds(faster, "shear_gravity_fast", "r1") - fill
     assert fast == pytest.approx(0.5 * slow)
+
+
+def test_the_rods_run_before_the_held_out_planar_replicas(config: dict) -> None:
+    """The intruder's 2D model stage (tens of CPU minutes) waits for every rod: the rods (and the
+    beds they start from) rank above the held-out planar cases' replicas, whose short runs then
+    fill the slots beside that stage."""
+    ranks = {(c, j): dem_priority(config, c, j) for c, j in dem_fills(config) + dem_runs(config)}
+    rods = min(v for (c, j), v in ranks.items() if c == "intruder")
+    planar = max(v for (c, j), v in ranks.items() if c in ("shear_gravity_fast", "shear_gravity_heavy"))
+    assert rods > planar
