@@ -277,7 +277,7 @@ def main(argv: list[str] | None = None) -> int:
     result.attrs.update(provenance_attrs(config))
     if args.states_out is not None:
         from pipeline.models.intruder_draws import save_states  # (that module builds on this one)
-        save_states(nominal, args.states_out, args.model, CELLS_PER_D)
+        save_states(nominal, args.states_out, args.model, CELLS_PER_D, provenance_attrs(config))
     atomic.write_netcdf(result, args.out)
     print(f"{args.model}: speeds {result.speed.values} m/s at depths {result.depth_over_d.values} d; "
           + (f"force sweep {result.sweep_speed.values} m/s at {result.push_over_yield.values} F_y; " if "sweep_speed" in result else "")

@@ -42,9 +42,11 @@ from pipeline.models.intruder import (CELLS_PER_D, DRAWS_CELLS_PER_D, NOMINAL_RE
 _SEP = "/"
 
 
-def save_states(results: list[IntruderSpeed | None], path: Path, model: str, cells_per_d: float) -> None:
+def save_states(results: list[IntruderSpeed | None], path: Path, model: str, cells_per_d: float,
+                provenance: dict[str, Any] | None = None) -> None:
     """The nominal solve's converged 2D states (the warm starts of the draws and the grid study),
-    one group of arrays per scene in ``scenes_of``'s order; a scene without a speed has none."""
+    one group of arrays per scene in ``scenes_of``'s order; a scene without a speed has none.
+    ``provenance`` (the config and software versions) is stored as JSON under ``_provenance``."""
     arrays: dict[str, np.ndarray] = {}
     predicted = []
     for k, result in enumerate(results):
@@ -55,6 +57,7 @@ def save_states(results: list[IntruderSpeed | None], path: Path, model: str, cel
     arrays["_predicted"] = np.array(predicted, dtype=bool)
     arrays["_cells_per_d"] = np.array([cells_per_d])
     arrays["_model"] = np.array([model])
+    arrays["_provenance"] = np.array([json.dumps(provenance or {}, default=str)])
     tmp = atomic.temporary(path)
     with open(tmp, "wb") as handle:  # (np.savez on a path would append .npz to the temporary name)
         np.savez(handle, **arrays)
