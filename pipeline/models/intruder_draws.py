@@ -201,34 +201,36 @@ def _inputs(args: argparse.Namespace) -> tuple[dict, dict, list[Scene]]:
 
 
 def main(argv: list[str] | None = None) -> int:
+    # The arguments every part reads: the scenes (runs, fields, params), the model, its nominal states.
+    common = argparse.ArgumentParser(add_help=False)
+    common.add_argument("--config", required=True)
+    common.add_argument("--params", required=True, type=Path)
+    common.add_argument("--model", required=True)
+    common.add_argument("--runs", nargs="+", required=True, type=Path, help="run.json of the intruder runs")
+    common.add_argument("--fields", nargs="+", required=True, type=Path, help="their fields files, same order")
+    common.add_argument("--states", required=True, type=Path,
+                        help="the nominal solve's states (models/intruder/MODEL.states.npz)")
+    common.add_argument("--out", required=True, type=Path)
     parser = argparse.ArgumentParser(description="An intruder model's draws (u_input) and grid study (u_num).")
-    sub = parser.add_subparsers(dest="part", required=True)
-    for name, text in (("draws", "one part of the parameter draws"), ("refined", "the grid study's finer grid")):
-        p = sub.add_parser(name, help=text)
-        p.add_argument("--config", required=True)
-        p.add_argument("--params", required=True, type=Path)
-        p.add_argument("--model", required=True)
-        p.add_argument("--runs", nargs="+", required=True, type=Path, help="run.json of the intruder runs")
-        p.add_argument("--fields", nargs="+", required=True, type=Path, help="their fields files, same order")
-        p.add_argument("--states", required=True, type=Path, help="the nominal solve's states (models/intruder/MODEL.states.npz)")
-        p.add_argument("--out", required=True, type=Path)
-        if name == "draws":
-            p.add_argument("--draws", required=True, type=Path, help="calibration/draws.json")
-            p.add_argument("--part", required=True, help="K/N: the K-th of N parts of the model's draws")
-    m = sub.add_parser("merge", help="the parts into model_draws/intruder/MODEL.nc")
-    m.add_argument("--config", required=True)
-    m.add_argument("--params", required=True, type=Path)
-    m.add_argument("--model", required=True)
-    m.add_argument("--runs", nargs="+", required=True, type=Path)
-    m.add_argument("--fields", nargs="+", required=True, type=Path)
+    sub = parser.add_subparsers(dest="stage", required=True)
+    sub.add_parser("refined", parents=[common], help="the grid study's finer grid")
+    d = sub.add_parser("draws", parents=[common], help="one part of the parameter draws")
+    d.add_argument("--draws", required=True, type=Path, help="calibration/draws.json")
+    d.add_argument("--part", required=True, help="K/N: the K-th of N parts of the model's draws")
+    m = sub.add_parser("merge", parents=[common], help="the parts into model_draws/intruder/MODEL.nc")
     m.add_argument("--draws", required=True, type=Path, help="calibration/draws.json (its seed)")
-    m.add_argument("--states", required=True, type=Path)
     m.add_argument("--parts", nargs="+", required=True, type=Path, help="the draws parts, then the refined part")
-    m.add_argument("--out", required=True, type=Path)
     args = parser.parse_args(argv)
+    if args.stage == "draws":
+        try:
+            k, n = (int(v) for v in args.part.split("/"))
+            if not 1 <= k <= n:
+                raise ValueError
+        except ValueError:
+            parser.error(f"--part {args.part!r}: K/N with 1 <= K <= N wanted")
     config, params, scenes = _inputs(args)
     nominal, cells = load_states(args.states, args.model, len(scenes))
-    if args.part == "merge":
+    if args.stage == "merge":
         parts = [xr.open_dataset(p).load() for p in args.parts]
         draws = [p for p in parts if "speed" in p]
         refined = [p for p in parts if "speed_refined" in p]
@@ -236,15 +238,9 @@ def main(argv: list[str] | None = None) -> int:
             parser.error(f"--parts: {len(refined)} grid-study parts among {', '.join(map(str, args.parts))}; one wanted")
         seed = int(json.loads(args.draws.read_text()).get("seed", -1))
         out = merge(args.model, scenes, draws, refined[0], cells, seed, True)
-    elif args.part == "refined":
+    elif args.stage == "refined":
         out = solve_refined(args.model, params, scenes, nominal)
     else:
-        try:
-            k, n = (int(v) for v in args.part.split("/"))
-            if not 1 <= k <= n:
-                raise ValueError
-        except ValueError:
-            parser.error(f"--part {args.part!r}: K/N with 1 <= K <= N wanted")
         ensemble = json.loads(args.draws.read_text())
         n_draws = min(intruder_draws(config, args.model), len(ensemble["draws"]))
         if DRAWS_CELLS_PER_D != cells:
@@ -252,7 +248,7 @@ def main(argv: list[str] | None = None) -> int:
         out = solve_draws(args.model, params, ensemble, scenes, draw_parts(n_draws, n)[k - 1], nominal)
     out.attrs.update(provenance_attrs(config))
     atomic.write_netcdf(out, args.out)
-    print(f"{args.model} {args.part}: written {args.out}", file=sys.stdout)
+    print(f"{args.model} {args.stage}: written {args.out}", file=sys.stdout)
     return 0
 
 

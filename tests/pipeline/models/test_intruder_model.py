@@ -133,3 +133,16 @@ def test_the_draws_in_parts_from_stored_states_equal_one_job(solved, tmp_path) -
     assert split.attrs["draws_parts"] == 2 and split.attrs["draws_seed"] == 7
     with pytest.raises(ValueError, match="ngf.states.npz: states of ngf for 3 scenes, not of local_mu_i"):
         load_states(path, "local_mu_i", 3)
+
+
+@pytest.mark.parametrize("part", ["0/2", "3/2", "1-2", "two"])
+def test_a_bad_draws_part_is_refused_before_any_input_is_read(part, tmp_path, capsys) -> None:
+    from pipeline.models.intruder_draws import main
+    missing = tmp_path / "absent"
+    with pytest.raises(SystemExit) as stop:
+        main(["draws", "--config", str(missing), "--params", str(missing), "--model", "ngf", "--runs", str(missing),
+              "--fields", str(missing), "--states", str(missing), "--out", str(tmp_path / "out.nc"),
+              "--draws", str(missing), "--part", part])
+    assert stop.value.code == 2
+    assert f"--part {part!r}" in capsys.readouterr().err
+    assert not (tmp_path / "out.nc").exists()
