@@ -223,10 +223,9 @@ def equations(y: np.ndarray, disc: Discretisation, law: PlasticLaw, eps: float, 
     (F + force of the material on the rod) / (P d), or U - U_given when ``rod_speed`` is set.
     Returns the residual, the Jacobian (CSC), and the fields of the state (rates, stresses, p).
     """
-    g, ops, mask = disc.grid, disc.ops, disc.mask
-    nc, nw, nx, nz = g.n_cells, g.n_w, g.nx, g.nz
+    g, ops = disc.grid, disc.ops
+    nc, nw = g.n_cells, g.n_w
     u, w, pi = y[:nc], y[nc:nc + nw], y[nc + nw:2 * nc + nw]
-    U = y[-1] if disc.has_rod else 0.0
     bxx = disc.bxx_u @ u
     bzz = disc.bzz_w @ w
     bg = disc.bg_u @ u + disc.bg_w @ w + disc.bg_lift * top_speed
@@ -242,26 +241,10 @@ def equations(y: np.ndarray, disc: Discretisation, law: PlasticLaw, eps: float, 
     t_xx, t_zz, t_xz = 2.0 * eta_c * bxx, 2.0 * eta_c * bzz, eta_k * bg
     r_u = -ops.dxu.T @ t_xx + ops.kz @ t_xz + ops.dxu.T @ pi
     r_w = disc.kx @ t_xz - ops.dzw.T @ t_zz + ops.dzw.T @ pi - disc.body
-    r_c = ops.dxu @ u + ops.dzw @ w
-    res_u, res_w, res_c = r_u * sc.d / sc.P, r_w * sc.d / sc.P, r_c * sc.d / sc.V
-    vol = g.hx * g.hz
-    pin = (nz - 1) * nx
-    top = slice((nz - 1) * nx, nz * nx)
-    below = slice((nz - 2) * nx, (nz - 1) * nx)
-    level = (np.mean(1.5 * pi[top] - 0.5 * pi[below]) - sc.P) / sc.P
-    res_u = np.where(mask.u_faces, (u - U) / sc.V, res_u)
-    res_w = np.where(mask.w_faces, w / sc.V, res_w)
-    res_c = np.where(mask.pinned_cells, pi / sc.P, res_c)
-    res_c[pin] = level
-    parts = [res_u, res_w, res_c]
-    rod_force = float(vol * r_u[mask.u_faces].sum()) if disc.has_rod else 0.0
-    if disc.has_rod:
-        parts.append(np.array([(U - rod_speed) / sc.V if rod_speed is not None
-                               else (force + rod_force) / (sc.P * sc.d)]))
-    out = {"residual": np.concatenate(parts), "rate_c": rate_c, "rate_k": rate_k, "p": p_raw, "p_eff": p_c,
-           "eta_c": eta_c, "eta_k": eta_k, "t_xx": t_xx, "t_xz_k": t_xz, "bg": bg, "rod_force": rod_force,
-           "floored": floored}
+    out = {"rate_c": rate_c, "rate_k": rate_k, "p": p_raw, "p_eff": p_c, "eta_c": eta_c, "eta_k": eta_k,
+           "t_xx": t_xx, "t_xz_k": t_xz, "bg": bg, "floored": floored}
     if not jacobian:
+        out.update(close_system(y, disc, r_u, r_w, force, rod_speed, sc))
         return out
 
     diag = sp.diags
@@ -292,8 +275,53 @@ def equations(y: np.ndarray, disc: Discretisation, law: PlasticLaw, eps: float, 
     jw_u = disc.kx @ txz_u - ops.dzw.T @ tzz_u
     jw_w = disc.kx @ txz_w - ops.dzw.T @ tzz_w
     jw_p = disc.kx @ txz_p - ops.dzw.T @ tzz_p + ops.dzw.T
-    jmom = sp.bmat([[ju_u, ju_w, ju_p], [jw_u, jw_w, jw_p]], format="csr")
-    jcon = sp.hstack([ops.dxu, ops.dzw, sp.csr_matrix((nc, nc))], format="csr")
+    out.update(close_system(y, disc, r_u, r_w, force, rod_speed, sc, ([ju_u, ju_w, ju_p], [jw_u, jw_w, jw_p])))
+    return out
+
+
+def close_system(y: np.ndarray, disc: Discretisation, r_u: np.ndarray, r_w: np.ndarray, force: float | None,
+                 rod_speed: float | None, sc: Scales, blocks: tuple[list, list] | None = None,
+                 extra: tuple[np.ndarray, sp.spmatrix | None] | None = None) -> dict:
+    """The scaled residual (and Jacobian) of a model's momentum rows closed by the shared ones.
+
+    ``r_u``, ``r_w``: the unconstrained x and z momentum residuals div T - rho g (Pa m-1) at the
+    u- and w-faces; ``blocks``: their Jacobians as lists of column blocks over the field unknowns
+    (u, w, pi, then the model's own), or None for the residual alone; ``extra``: the model's own
+    rows (scaled, their constraints included) and their Jacobian over the same columns. Adds
+    continuity (d / V), the pressure level on the top wall (1 / P), the rod's rigid faces and
+    pinned cells, and the rod's force balance or driven speed (the last unknown, U, when there is
+    a rod). Returns ``residual``, ``rod_force`` (N m-1, the material's force on the rod along x,
+    from the unconstrained x rows over its faces) and, with ``blocks``, ``jacobian`` (CSC).
+    """
+    g, ops, mask = disc.grid, disc.ops, disc.mask
+    nc, nw, nx, nz = g.n_cells, g.n_w, g.nx, g.nz
+    u, w, pi = y[:nc], y[nc:nc + nw], y[nc + nw:2 * nc + nw]
+    U = y[-1] if disc.has_rod else 0.0
+    r_c = ops.dxu @ u + ops.dzw @ w
+    res_u, res_w, res_c = r_u * sc.d / sc.P, r_w * sc.d / sc.P, r_c * sc.d / sc.V
+    vol = g.hx * g.hz
+    pin = (nz - 1) * nx
+    top = slice((nz - 1) * nx, nz * nx)
+    below = slice((nz - 2) * nx, (nz - 1) * nx)
+    level = (np.mean(1.5 * pi[top] - 0.5 * pi[below]) - sc.P) / sc.P
+    res_u = np.where(mask.u_faces, (u - U) / sc.V, res_u)
+    res_w = np.where(mask.w_faces, w / sc.V, res_w)
+    res_c = np.where(mask.pinned_cells, pi / sc.P, res_c)
+    res_c[pin] = level
+    parts = [res_u, res_w, res_c] + ([extra[0]] if extra is not None else [])
+    rod_force = float(vol * r_u[mask.u_faces].sum()) if disc.has_rod else 0.0
+    if disc.has_rod:
+        parts.append(np.array([(U - rod_speed) / sc.V if rod_speed is not None
+                               else (force + rod_force) / (sc.P * sc.d)]))
+    out = {"residual": np.concatenate(parts), "rod_force": rod_force}
+    if blocks is None:
+        return out
+
+    diag = sp.diags
+    ju, jw = blocks
+    nf = sum(b.shape[1] for b in ju)  # field unknowns (U excluded)
+    jmom = sp.bmat([ju, jw], format="csr")
+    jcon = sp.hstack([ops.dxu, ops.dzw, sp.csr_matrix((nc, nf - nc - nw))], format="csr")
     jac = sp.vstack([jmom * (sc.d / sc.P), jcon * (sc.d / sc.V)], format="csr")
     # constraint rows
     n3 = 2 * nc + nw
@@ -301,22 +329,23 @@ def equations(y: np.ndarray, disc: Discretisation, law: PlasticLaw, eps: float, 
     constrained[nc + nw + pin] = True
     scale_c = np.concatenate([np.full(nc, 1.0 / sc.V), np.full(nw, 1.0 / sc.V), np.full(nc, 1.0 / sc.P)])
     scale_c[nc + nw + pin] = 0.0  # the pin cell's row is the pressure level
-    ident = diag(np.where(constrained, scale_c, 0.0))
+    ident = diag(np.where(constrained, scale_c, 0.0), 0, shape=(n3, nf))
     cols = np.concatenate([nc + nw + np.arange(top.start, top.stop), nc + nw + np.arange(below.start, below.stop)])
     level = sp.csr_matrix((np.concatenate([np.full(nx, 1.5 / (nx * sc.P)), np.full(nx, -0.5 / (nx * sc.P))]),
-                           (np.full(2 * nx, nc + nw + pin), cols)), shape=(n3, n3))
+                           (np.full(2 * nx, nc + nw + pin), cols)), shape=(n3, nf))
     jac = (diag((~constrained).astype(float)) @ jac + ident + level).tocsr()
+    if extra is not None:
+        jac = sp.vstack([jac, extra[1]], format="csr")
     if disc.has_rod:
-        u_col = np.zeros(n3)
+        u_col = np.zeros(nf)
         u_col[:nc][mask.u_faces] = -1.0 / sc.V
         if rod_speed is not None:
-            last = sp.csr_matrix(([1.0 / sc.V], ([0], [n3])), shape=(1, n3 + 1))
+            last = sp.csr_matrix(([1.0 / sc.V], ([0], [nf])), shape=(1, nf + 1))
         else:
             sel = sp.csr_matrix((np.ones(int(mask.u_faces.sum())), (np.zeros(int(mask.u_faces.sum()), int),
                                                                      np.flatnonzero(mask.u_faces))), shape=(1, nc))
-            row = sel @ sp.hstack([ju_u, ju_w, ju_p]) * (vol / (sc.P * sc.d))
+            row = sel @ sp.hstack(ju) * (vol / (sc.P * sc.d))
             last = sp.hstack([row, sp.csr_matrix((1, 1))])
         jac = sp.vstack([sp.hstack([jac, sp.csr_matrix(u_col[:, None])]), last], format="csc")
     out["jacobian"] = jac.tocsc()
     return out
-
