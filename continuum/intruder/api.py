@@ -20,10 +20,11 @@ import numpy as np
 from .. import solve as solve_planar
 from ..errors import OutOfRangeError
 from ..geometry import PlanarShear
-from ..parameters import CriticalStateParameters, LocalMuIParameters, NGFParameters, VolumeAveragedParameters
+from ..parameters import (CosseratParameters, CriticalStateParameters, LocalMuIParameters, NGFParameters,
+                          VolumeAveragedParameters)
 from .framework import RodSolver
 from .local import kinematic_speed, layer_sliding_speed, rod_in_static_zone, yield_force
-from .cosserat2d import WHY as COSSERAT_NOT_SOLVED
+from .cosserat2d import CosseratRodSolver
 from .critical_state2d import CriticalStateRodSolver
 from .mu_i2d import MuIRodSolver
 from .ngf2d import FROZEN, NGFRodSolver, solve_frozen
@@ -109,7 +110,7 @@ def _local_estimate(model: str) -> Estimate:
 
 
 #: label -> how its intruder speed is made. The models' own 2D solvers register with ``solver=``
-#: (H2's mu(I), critical state, volume-averaged and Cosserat solvers replace the estimates here).
+#: (every model's own 2D solver; the former 1D estimates stay under labels of their own).
 INTRUDER_MODELS: dict[str, IntruderModel] = {
     "ngf": IntruderModel(NGFParameters, solver=NGFRodSolver),
     FROZEN: IntruderModel(NGFParameters, estimate=_ngf_frozen, approximates="ngf"),
@@ -118,6 +119,7 @@ INTRUDER_MODELS: dict[str, IntruderModel] = {
     "local_mu_i": IntruderModel(LocalMuIParameters, solver=MuIRodSolver),
     "critical_state": IntruderModel(CriticalStateParameters, solver=CriticalStateRodSolver),
     "volume_averaged": IntruderModel(VolumeAveragedParameters, solver=VolumeAveragedRodSolver),
+    "cosserat": IntruderModel(CosseratParameters, solver=CosseratRodSolver),
     "local_mu_i_layer_sliding": IntruderModel(LocalMuIParameters, estimate=_local_estimate("local_mu_i"),
                                               approximates="local_mu_i"),
     "critical_state_yield_check": IntruderModel(CriticalStateParameters, estimate=_local_estimate("critical_state"),
@@ -143,8 +145,6 @@ def intruder_speed(model: str, geometry: PlanarShear, params: Any, intruder: Rod
     refuses the scene: e.g. the bed opens in tension next to the rod), ``ConvergenceError``.
     """
     if model not in INTRUDER_MODELS:
-        if model == "cosserat":
-            raise NotImplementedError(COSSERAT_NOT_SOLVED)
         raise KeyError(f"unknown intruder model {model!r}; known: {sorted(INTRUDER_MODELS)}")
     entry = INTRUDER_MODELS[model]
     if not isinstance(params, entry.params_type):

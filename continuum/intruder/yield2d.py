@@ -179,6 +179,25 @@ class YieldRodSolver(RodSolver):
                          self.driven_speed, geo.normal_stress_ratio, P_FLOOR * self.top_pressure, geo.rho_s,
                          Scales(geo.wall_speed, geo.wall_pressure, geo.d), jacobian=jacobian)
 
+    #: The entries of a solution's ``state`` that make its unknown vector (``_state``, ``_vector``).
+    state_keys: tuple[str, ...] = ("u", "w", "pi", "U")
+
+    @property
+    def regrids(self) -> bool:
+        """Whether a state on another grid of the cell is carried onto this one (``REGRID_STAGES``)."""
+        return self.law.length == 0.0
+
+    def _state(self, y: np.ndarray, disc: Discretisation) -> dict[str, np.ndarray]:
+        """The unknown vector as named fields (the first entry has the cells' size: the registry's
+        warm-start check)."""
+        nc, nw = self.grid.n_cells, self.grid.n_w
+        return {"u": y[:nc].copy(), "w": y[nc:nc + nw].copy(), "pi": y[nc + nw:2 * nc + nw].copy(),
+                "U": np.array([y[-1] if disc.has_rod else np.nan])}
+
+    def _vector(self, state: dict[str, np.ndarray], disc: Discretisation) -> np.ndarray:
+        """The unknown vector of a ``_state`` on this grid."""
+        return np.concatenate([state["u"], state["w"], state["pi"], state["U"][:1] if disc.has_rod else []])
+
     def _step_scale(self, disc: Discretisation) -> np.ndarray:
         g, geo = self.grid, self.geometry
         s = np.concatenate([np.full(g.n_cells + g.n_w, geo.wall_speed), np.full(g.n_cells, geo.wall_pressure)])
@@ -264,9 +283,9 @@ class YieldRodSolver(RodSolver):
         last two stages), from ``warm`` carried from another grid of the same cell (the local laws:
         the last ``REGRID_STAGES``), else from the planar solution (every stage)."""
         stages = self.regularisations
-        usable = warm is not None and set(warm) >= {"u", "w", "pi", "U"}
+        usable = warm is not None and set(warm) >= set(self.state_keys)
         if usable and warm["u"].size != self.grid.n_cells:
-            if "grid" not in warm or self.law.length != 0.0 or not same_cell(warm["grid"], self.grid):
+            if "grid" not in warm or not self.regrids or not same_cell(warm["grid"], self.grid):
                 return self._initial(planar, disc), stages
             nx, nz, hx, hz = warm["grid"]
             warm = regrid_state(warm, MacGrid(int(nx), int(nz), float(hx), float(hz)), self.grid,
@@ -281,8 +300,7 @@ class YieldRodSolver(RodSolver):
                 return previous.copy(), stages[first:]
         else:
             return self._initial(planar, disc), stages
-        y = np.concatenate([warm["u"], warm["w"], warm["pi"], warm["U"][:1] if disc.has_rod else []])
-        return y, stages[first:]
+        return self._vector(warm, disc), stages[first:]
 
     @np.errstate(under="ignore")  # products of the rigid zones' tiny rates underflow harmlessly
     def solve_regularised(self, warm: dict[str, np.ndarray] | None = None) -> RodSolution:
@@ -354,11 +372,8 @@ class YieldRodSolver(RodSolver):
                  "regularisation_slope": slope, "rigid_in_limit": int(rigid),
                  "speed_bound": float(flow.rod_speed)}
         attrs.update({f"speed_at_eps_{e:.0e}": v for e, v in by_eps.items()})
-        nc, nw = self.grid.n_cells, self.grid.n_w
-        # the first entry has the cells' size (the registry's warm-start check)
-        state = {"u": y[:nc].copy(), "w": y[nc:nc + nw].copy(), "pi": y[nc + nw:2 * nc + nw].copy(),
-                 "U": np.array([y[-1] if disc.has_rod else np.nan]),
-                 "grid": np.array([self.grid.nx, self.grid.nz, self.grid.hx, self.grid.hz])}
+        state = self._state(y, disc)
+        state["grid"] = np.array([self.grid.nx, self.grid.nz, self.grid.hx, self.grid.hz])
         if len(stages) >= 2:
             state["y_previous_stage"] = y_previous.copy()  # the solution at stages[-2] (warm starts)
         return RodSolution(self.model, speed, True, iterations, residuals, time.perf_counter() - t0,

@@ -96,8 +96,8 @@ def intruder_cases(config: dict[str, Any]) -> list[str]:
     return [case for case, spec in config["cases"].items() if spec["geometry"] == "intruder"]
 
 
-#: Models that predict an intruder speed (continuum.intruder); Cosserat is not solved in 2D.
-INTRUDER_MODELS = ("ngf", "local_mu_i", "critical_state", "volume_averaged")
+#: Models that predict an intruder speed (continuum.intruder: each its own 2D solve).
+INTRUDER_MODELS = ("ngf", "local_mu_i", "critical_state", "volume_averaged", "cosserat")
 
 
 def intruder_model_paths(config: dict[str, Any]) -> list[str]:

@@ -79,7 +79,7 @@ def test_plastic_solvers_take_their_own_draw_count() -> None:
     config = load_config("config/ci.yaml")
     models = config["models"]
     assert models["intruder_plastic_draws"] != models["intruder_draws"]
-    for plastic in ("local_mu_i", "critical_state", "volume_averaged"):
+    for plastic in ("local_mu_i", "critical_state", "volume_averaged", "cosserat"):
         assert intruder_draws(config, plastic) == models["intruder_plastic_draws"]
     for other in ("ngf", "ngf_frozen", "local_mu_i_layer_sliding"):
         assert intruder_draws(config, other) == models["intruder_draws"]
