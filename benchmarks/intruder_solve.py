@@ -19,9 +19,9 @@ calibration (docs/validation.md: mu_s 0.374 +- 0.0028, mu_2 1.023 +- 0.045, I_0 
 nu_c 0.587, NGF A 0.327 +- 0.055); draws independent normal with those errors, seed 43.
 
 Run: ``nice -n 5 python benchmarks/intruder_solve.py [--draws 8] [--cold-draws 2] [--models ngf ngf_frozen
-local_mu_i critical_state volume_averaged] [--draws-cells 3] [--no-grid] [--grid-warm] [--grid-pushes 0.3 0.6]``
+local_mu_i critical_state volume_averaged cosserat] [--draws-cells 3] [--no-grid] [--grid-warm] [--grid-pushes 0.3 0.6]``
 (the yield-stress models' draws vary mu_s, and mu_2, I_0 for mu(I), l = 1.165 +- 0.06 d for the volume-averaged
-model). CPU seconds (time.process_time) are reported, the machine being shared.
+model, l = 1.944 +- 0.009 d for Cosserat). CPU seconds (time.process_time) are reported, the machine being shared.
 """
 from __future__ import annotations
 
@@ -38,15 +38,16 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 import continuum  # noqa: E402
 from continuum.intruder import INTRUDER_MODELS, GridOptions, RodIntruder, intruder_speed  # noqa: E402
-from continuum.parameters import (CriticalStateLine, CriticalStateParameters, LocalMuIParameters,  # noqa: E402
+from continuum.parameters import (CosseratParameters, CriticalStateLine, CriticalStateParameters, LocalMuIParameters,  # noqa: E402
                                   MuIParameters, NGFParameters, SolidFractionLaw, VolumeAveragedParameters)
 
 D = 0.002
 GEO = continuum.PlanarShear(depth=21.6 * D, wall_speed=0.1, wall_pressure=200.0, gravity=9.81, d=D, rho_s=2500.0,
                             normal_stress_ratio=1.058)
 LX = 12 * D
-NOMINAL = {"mu_s": 0.374, "mu_2": 1.023, "I_0": 0.637, "A": 0.327, "l": 1.165 * D}
-ERRORS = {"mu_s": 0.0028, "mu_2": 0.045, "I_0": 0.075, "A": 0.055, "l": 0.06 * D}
+#: l_cosserat: the 2026-12-05 default run's fit, 1.944 +- 0.009 d (calibration/params.json).
+NOMINAL = {"mu_s": 0.374, "mu_2": 1.023, "I_0": 0.637, "A": 0.327, "l": 1.165 * D, "l_cosserat": 1.944 * D}
+ERRORS = {"mu_s": 0.0028, "mu_2": 0.045, "I_0": 0.075, "A": 0.055, "l": 0.06 * D, "l_cosserat": 0.009 * D}
 DEM_SLOPE, DEM_SLOPE_ERR = 3.7, 0.5
 
 
@@ -69,6 +70,8 @@ def parameters(model: str, v: dict[str, float]):
         return critical
     if model == "volume_averaged":
         return VolumeAveragedParameters(critical, v["l"])
+    if model == "cosserat":
+        return CosseratParameters(critical, v["l_cosserat"], beta=1.0, wall_spin_ratio=0.5)
     raise KeyError(f"benchmark has no parameters for {model!r} yet")
 
 
@@ -100,7 +103,12 @@ def main() -> None:
     ap.add_argument("--grid-pushes", nargs="+", type=float, default=[0.3, 0.6])
     args = ap.parse_args()
     rng = np.random.default_rng(43)
-    draws = [{k: NOMINAL[k] + ERRORS[k] * rng.standard_normal() for k in NOMINAL} for _ in range(args.draws)]
+    draws = [{k: NOMINAL[k] + ERRORS[k] * rng.standard_normal() for k in NOMINAL if k != "l_cosserat"}
+             for _ in range(args.draws)]
+    # Cosserat's l from a stream of its own, so the other models' draws stay those recorded before it
+    rng_cosserat = np.random.default_rng(44)
+    for draw in draws:
+        draw["l_cosserat"] = NOMINAL["l_cosserat"] + ERRORS["l_cosserat"] * rng_cosserat.standard_normal()
     print("scene: depth / d, F / F_y(depth); U in m/s; cpu_s = CPU seconds; it = fixed-point map evaluations")
     print(f"{'model':<12} {'depth':>5} {'F/F_y':>6} {'U':>10} {'u_input':>8} {'conv':>4} {'it':>4} {'cpu_s':>6}"
           f" {'warm_it':>7} {'warm_s':>6} {'cold_it':>7} {'cold_s':>6}")
