@@ -238,11 +238,6 @@ class CosseratRodSolver(YieldRodSolver):
         q = self.params
         return CosseratLaw(q.critical.sin_phi, q.beta, q.l, q.wall_spin_ratio)
 
-    @property
-    def regrids(self) -> bool:
-        # the interpolation of ``regrid`` carries u, w, pi, not the spin: a finer grid starts cold
-        return False
-
     def _discretisation(self) -> Discretisation:
         disc = super()._discretisation()
         grid, rod = self.grid, self.rod

@@ -34,7 +34,7 @@ def same_cell(grid_of_state: np.ndarray, grid: MacGrid) -> bool:
 
 
 def regrid_state(state: dict[str, np.ndarray], old: MacGrid, new: MacGrid, top_speed: float) -> dict[str, np.ndarray]:
-    """``state`` (``u``, ``w``, ``pi`` flat on ``old``, ``U``) on ``new``: same cell (nx hx, nz hz
+    """``state`` (``u``, ``w``, ``pi`` flat on ``old``, ``U``; ``omega`` on the corners if there) on ``new``: same cell (nx hx, nz hz
     equal to round-off), other spacings. Units unchanged (m s-1, Pa)."""
     lx, h = old.nx * old.hx, old.nz * old.hz
     if not (np.isclose(lx, new.nx * new.hx, rtol=1e-9) and np.isclose(h, new.nz * new.hz, rtol=1e-9)):
@@ -51,7 +51,12 @@ def regrid_state(state: dict[str, np.ndarray], old: MacGrid, new: MacGrid, top_s
     xu, zu = np.meshgrid(np.arange(new.nx) * new.hx, new.z_centres)
     xw, zw = np.meshgrid(new.x_centres, np.arange(1, new.nz) * new.hz)
     xc, zc = np.meshgrid(new.x_centres, new.z_centres)
-    return {"u": _interp(u_rows, xu_old, zu_old, lx, xu.ravel(), zu.ravel()),
-            "w": _interp(w_rows, xc_old, zw_old, lx, xw.ravel(), zw.ravel()),
-            "pi": _interp(p_rows, xc_old, zu_old, lx, xc.ravel(), zc.ravel()),
-            "U": np.array(state["U"], dtype=float).copy()}
+    out = {"u": _interp(u_rows, xu_old, zu_old, lx, xu.ravel(), zu.ravel()),
+           "w": _interp(w_rows, xc_old, zw_old, lx, xw.ravel(), zw.ravel()),
+           "pi": _interp(p_rows, xc_old, zu_old, lx, xc.ravel(), zc.ravel())}
+    if "omega" in state:  # a corner field (Cosserat's spin): corners (i hx, j hz), j = 0..nz, walls included
+        omega = state["omega"].reshape(old.nz + 1, old.nx)
+        xk, zk = np.meshgrid(np.arange(new.nx) * new.hx, np.arange(new.nz + 1) * new.hz)
+        out["omega"] = _interp(omega, xu_old, zw_old, lx, xk.ravel(), zk.ravel())
+    out["U"] = np.array(state["U"], dtype=float).copy()
+    return out

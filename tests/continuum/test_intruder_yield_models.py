@@ -100,14 +100,19 @@ def test_critical_state_refuses_a_push_above_its_limit_load() -> None:
 
 def test_regrid_carries_a_linear_state_exactly() -> None:
     """Bilinear interpolation, periodic in x, with the walls' values as rows: a field linear in z
-    (the planar shear u = V z / H, w = 0, a hydrostatic pi) is carried onto another grid exactly."""
+    (the planar shear u = V z / H, w = 0, a hydrostatic pi; Cosserat's corner spin, here linear in
+    z, walls included) is carried onto another grid exactly."""
     from continuum.intruder.mac import MacGrid
     from continuum.intruder.regrid import regrid_state
     h, lx, V = 10 * D, 4 * D, 0.1
     old, new = MacGrid(8, 20, lx / 8, h / 20), MacGrid(12, 30, lx / 12, h / 30)
     zu = np.repeat(old.z_centres, old.nx)
-    state = {"u": V * zu / h, "w": np.zeros(old.n_w), "pi": 200.0 + 30.0 * (h - zu), "U": np.array([0.05])}
+    zk = np.repeat(np.arange(old.nz + 1) * old.hz, old.nx)
+    state = {"u": V * zu / h, "w": np.zeros(old.n_w), "pi": 200.0 + 30.0 * (h - zu), "U": np.array([0.05]),
+             "omega": 3.0 + 40.0 * zk / h}
     out = regrid_state(state, old, new, V)
+    zk_new = np.repeat(np.arange(new.nz + 1) * new.hz, new.nx)
+    assert np.allclose(out["omega"], 3.0 + 40.0 * zk_new / h, rtol=1e-12)
     z_new = np.repeat(new.z_centres, new.nx)
     assert np.allclose(out["u"], V * z_new / h, rtol=0, atol=1e-12 * V)
     assert np.allclose(out["pi"], 200.0 + 30.0 * (h - z_new), rtol=1e-12) and not out["w"].any()
