@@ -19,7 +19,7 @@ calibration (docs/validation.md: mu_s 0.374 +- 0.0028, mu_2 1.023 +- 0.045, I_0 
 nu_c 0.587, NGF A 0.327 +- 0.055); draws independent normal with those errors, seed 43.
 
 Run: ``nice -n 5 python benchmarks/intruder_solve.py [--draws 8] [--cold-draws 2] [--models ngf ngf_frozen
-local_mu_i critical_state volume_averaged cosserat] [--draws-cells 3] [--no-grid] [--grid-warm] [--grid-pushes 0.3 0.6]``
+local_mu_i critical_state volume_averaged cosserat] [--draws-cells 3] [--no-grid] [--grid-warm] [--grid-pushes 0.3 0.6] [--grid-only]``
 (the yield-stress models' draws vary mu_s, and mu_2, I_0 for mu(I), l = 1.165 +- 0.06 d for the volume-averaged
 model, l = 1.944 +- 0.009 d for Cosserat). CPU seconds (time.process_time) are reported, the machine being shared.
 """
@@ -101,6 +101,7 @@ def main() -> None:
                     help="start the 4 and 6 cells/d solves from the 3 cells/d one carried onto them (the pipeline's "
                          "grid study does, for the solvers that can: continuum/intruder/regrid.py)")
     ap.add_argument("--grid-pushes", nargs="+", type=float, default=[0.3, 0.6])
+    ap.add_argument("--grid-only", action="store_true", help="only section 4 (the grid convergence)")
     args = ap.parse_args()
     rng = np.random.default_rng(43)
     draws = [{k: NOMINAL[k] + ERRORS[k] * rng.standard_normal() for k in NOMINAL if k != "l_cosserat"}
@@ -113,7 +114,7 @@ def main() -> None:
     print(f"{'model':<12} {'depth':>5} {'F/F_y':>6} {'U':>10} {'u_input':>8} {'conv':>4} {'it':>4} {'cpu_s':>6}"
           f" {'warm_it':>7} {'warm_s':>6} {'cold_it':>7} {'cold_s':>6}")
     stage: dict[str, float] = {}
-    for model in args.models:
+    for model in [] if args.grid_only else args.models:
         solver_model = INTRUDER_MODELS[model].solver is not None
         cold_it, cold_s, warm_it, warm_s = [], [], [], []
         sweep: dict[float, tuple[float, float]] = {}
@@ -177,6 +178,7 @@ def main() -> None:
                     res, sec, err = timed(model, NOMINAL, scene, cells, warm=coarse if args.grid_warm else None)
                     if cells == 3.0:
                         coarse = res
+                    print(f"    ({model} F/F_y {push} {cells:g}/d: {res.speed if res else err} in {sec:.1f} cpu s)", flush=True)
                     row.append((cells, res.speed if res else math.nan, res.iterations if res else -1, sec))
                     if cells == 4.0 and model in stage:
                         stage[model] += sec * len(SCENES) / 2.0  # the grid study: every scene at 4 cells/d
