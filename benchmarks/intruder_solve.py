@@ -184,7 +184,8 @@ def main() -> None:
                         stage[model] += sec * len(SCENES) / 2.0  # the grid study: every scene at 4 cells/d
                 u6 = row[-1][1]
                 print(f"  {model:<12} F/F_y {push}: " + "; ".join(
-                    f"{c:g}/d U {u:.4e} ({(u / u6 - 1) * 100:+.2f} % of 6/d, {it} it, {s:.1f} cpu s)" for c, u, it, s in row))
+                    f"{c:g}/d U {u:.4e} (" + (f"{(u / u6 - 1) * 100:+.2f} % of 6/d, " if u6 else "")  # a rod at rest has no ratio
+                    + f"{it} it, {s:.1f} cpu s)" for c, u, it, s in row))
     for model, sec in stage.items():
         print(f"stage estimate {model}: {sec:.0f} cpu s ({sec / 2:.0f} s on 2 cores if split evenly), "
               f"{len(SCENES)} scenes x (1 + {args.pipeline_draws} draws) + grid study")
