@@ -42,7 +42,7 @@ import xarray as xr
 
 from ..geometry import PlanarShear
 from ..parameters import CosseratParameters
-from .framework import P_FLOOR, Flow
+from .framework import Flow
 from .mac import MacGrid, Operators
 from .plastic2d import Discretisation, PlasticLaw, Scales, close_system, corner_xz, inside_rod
 from .scene import GridOptions, RodIntruder
@@ -122,16 +122,16 @@ class CosseratLaw:
         return PlasticLaw("cosserat", self.friction)
 
 
-def equations(y: np.ndarray, disc: Discretisation, spin: SpinOperators, law: CosseratLaw, eps: float,
-              top_speed: float, force: float | None, rod_speed: float | None, r_ratio: float, p_floor: float,
+def equations(y: np.ndarray, disc: Discretisation, law: CosseratLaw, eps: float, top_speed: float,
+              force: float | None, rod_speed: float | None, r_ratio: float, p_floor: float,
               rho_s: float, sc: Scales, jacobian: bool = True) -> dict:
     """Scaled residual (and Jacobian) of the discrete steady equations at y = (u, w, pi, omega[, U]).
 
     Rows as ``plastic2d.equations`` (``close_system``), then one per corner: the moment balance
     div M + 2 t over P_wall, or on the fixed corners the wall condition
-    (omega - chi_w vorticity / 2) d / V.
+    (omega - chi_w vorticity / 2) d / V. ``disc.spin``: the ``SpinOperators``.
     """
-    g, ops = disc.grid, disc.ops
+    g, ops, spin = disc.grid, disc.ops, disc.spin
     nc, nw, nk = g.n_cells, g.n_w, g.n_corners
     u, w, pi = y[:nc], y[nc:nc + nw], y[nc + nw:2 * nc + nw]
     om = y[2 * nc + nw:2 * nc + nw + nk]
@@ -233,8 +233,10 @@ class CosseratRodSolver(YieldRodSolver):
     def law(self) -> PlasticLaw:
         return PlasticLaw(self.model, self.params.critical.sin_phi)
 
+    equations_of = staticmethod(equations)
+
     @property
-    def cosserat_law(self) -> CosseratLaw:
+    def residual_law(self) -> CosseratLaw:
         q = self.params
         return CosseratLaw(q.critical.sin_phi, q.beta, q.l, q.wall_spin_ratio)
 
@@ -244,7 +246,7 @@ class CosseratRodSolver(YieldRodSolver):
         centre = None if rod is None else (0.5 * self.cell_length_x, rod.depth_from_bottom)
         xk, zk = corner_xz(grid)
         solid_k = inside_rod(xk, zk, grid, centre, 0.0 if rod is None else rod.radius)
-        self._spin = spin_operators(grid, self.ops, solid_k)
+        disc.spin = spin_operators(grid, self.ops, solid_k)
         disc.n += grid.n_corners
         return disc
 
@@ -275,13 +277,6 @@ class CosseratRodSolver(YieldRodSolver):
         geo = self.geometry
         spin = np.full(self.grid.n_corners, geo.wall_speed / geo.d)
         return np.concatenate([base[:n3], spin, base[n3:]])
-
-    def _evaluate(self, y: np.ndarray, disc: Discretisation, eps_rel: float, jacobian: bool) -> dict:
-        geo = self.geometry
-        force = None if self.rod is None else self.rod.force_per_length * self._force_fraction
-        return equations(y, disc, self._spin, self.cosserat_law, eps_rel * geo.wall_speed / geo.d, geo.wall_speed,
-                         force, self.driven_speed, geo.normal_stress_ratio, P_FLOOR * self.top_pressure, geo.rho_s,
-                         Scales(geo.wall_speed, geo.wall_pressure, geo.d), jacobian=jacobian)
 
     def output_fields(self, flow: Flow, fields: dict[str, np.ndarray]) -> dict[str, tuple[np.ndarray, str, str]]:
         _, omega = self._split(flow.x)

@@ -189,6 +189,7 @@ class Discretisation:
     fill: sp.csr_matrix         # rod cells <- nearest material cell
     body: np.ndarray            # weight rho_s nu g at the interior w-faces (N m-3)
     has_rod: bool
+    spin: object | None = None  # a model's own operators (Cosserat's ``SpinOperators``), else None
 
     def __post_init__(self) -> None:
         ops = self.ops

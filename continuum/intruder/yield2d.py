@@ -172,10 +172,18 @@ class YieldRodSolver(RodSolver):
             y[-1] = U
         return y
 
+    #: The model's discrete equations, with ``plastic2d.equations``' signature (law: ``residual_law``).
+    equations_of = staticmethod(equations)
+
+    @property
+    def residual_law(self) -> Any:
+        """The law ``equations_of`` takes (the yield-stress models: ``law``)."""
+        return self.law
+
     def _evaluate(self, y: np.ndarray, disc: Discretisation, eps_rel: float, jacobian: bool) -> dict:
         geo = self.geometry
         force = None if self.rod is None else self.rod.force_per_length * self._force_fraction
-        return equations(y, disc, self.law, eps_rel * geo.wall_speed / geo.d, geo.wall_speed, force,
+        return self.equations_of(y, disc, self.residual_law, eps_rel * geo.wall_speed / geo.d, geo.wall_speed, force,
                          self.driven_speed, geo.normal_stress_ratio, P_FLOOR * self.top_pressure, geo.rho_s,
                          Scales(geo.wall_speed, geo.wall_pressure, geo.d), jacobian=jacobian)
 
