@@ -345,7 +345,18 @@ class RodSolver(ABC):
 
     def solve(self, warm: dict[str, np.ndarray] | None = None) -> RodSolution:
         """Converged steady solution; ``warm`` is a previous solution's ``state`` on the same
-        grid (the iteration starts there instead of the planar solution)."""
+        grid (the iteration starts there instead of the planar solution). A warm start is a
+        guess: where it does not converge, the solve starts once more from the planar solution,
+        and only that failure is the model's."""
+        if warm is None:
+            return self._solve(None)
+        try:
+            return self._solve(warm)
+        except ConvergenceError:
+            return self._solve(None)
+
+    def _solve(self, warm: dict[str, np.ndarray] | None) -> RodSolution:
+        """``solve`` from one start: ``warm``, or the planar solution."""
         t0 = time.perf_counter()
         self.evaluations = 0
         opts, mat = self.options, self.material

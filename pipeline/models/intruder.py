@@ -163,10 +163,9 @@ def solve_scenes(model: str, parameters: Any, scenes: list[Scene], cells_per_d: 
             results.append(None)
             reasons.append(NOMINAL_REFUSED)
             continue
+        # (a warm start that fails is retried cold by the solver itself: continuum.intruder)
         start = warm[k] if warm is not None else last.get(scene.target)
         result, reason = solve_scene(model, parameters, scene, cells_per_d, start)
-        if result is None and start is not None:
-            result, reason = solve_scene(model, parameters, scene, cells_per_d, None)  # cold, once
         if result is not None and result.state is not None:
             last[scene.target] = result
         results.append(result)
