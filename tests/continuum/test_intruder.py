@@ -14,6 +14,7 @@ from continuum.errors import ConvergenceError, OutOfRangeError
 from continuum.geometry import PlanarShear
 from continuum.intruder import GridOptions, RodIntruder, intruder_speed, solve_2d
 from continuum.intruder.local import layer_sliding_speed
+from continuum.intruder.framework import RETRY_DEPTH_FACTOR
 from continuum.intruder.ngf2d import NGFRodSolver
 from continuum.parameters import LocalMuIParameters, MuIParameters, NGFParameters, SolidFractionLaw
 
@@ -109,27 +110,31 @@ def test_coupled_ngf_converges_at_every_push_of_the_default() -> None:
     assert speeds[(5, f5)] > speeds[(7, f5)] > speeds[(9, f5)] > 0.0
 
 
-def test_a_warm_start_that_fails_is_retried_cold_by_the_solver() -> None:
-    """A warm start is a guess: where NGF's 2D iteration from it fails (here forced: a solver
-    whose warm solves raise ConvergenceError, as a draw's warm start that does not converge in its
-    budget does), ``solve`` starts once more from the planar solution and returns the cold solve
-    exactly. The pipeline relies on this: it no longer retries a failed draw cold itself
-    (pipeline.models.intruder.solve_scenes)."""
+def test_a_solve_that_fails_is_retried_deeper_then_cold() -> None:
+    """Where NGF's 2D iteration does not converge (here forced: a solver whose warm solves raise
+    ConvergenceError, as a draw's warm start that does not converge in its budget does), ``solve``
+    tries the same start with twice the Anderson history, then the planar start with each depth,
+    and returns the first that converges: here the cold plain one, exactly the cold solve (the
+    same deterministic iteration). The pipeline relies on this: it no longer retries a failed
+    draw cold itself (pipeline.models.intruder.solve_scenes)."""
     grid = GridOptions(cells_per_d=2)
     r = RodIntruder.below_top(DEFAULT_GEO, 3 * D, 6.5 * D, 0.3 * yield_force(7))
     cold = intruder_speed("ngf", DEFAULT_GEO, DEFAULT_NGF, r, 12 * D, grid)
-    starts: list[bool] = []
+    assert cold.attrs["start"] == "planar" and cold.attrs["anderson_depth"] == grid.anderson_depth
+    attempts: list[tuple[bool, int]] = []
 
     class WarmFails(NGFRodSolver):
-        def _solve(self, warm):
-            starts.append(warm is not None)
+        def _solve(self, warm, anderson_depth):
+            attempts.append((warm is not None, anderson_depth))
             if warm is not None:
                 raise ConvergenceError(self.model, 1.0, "warm start forced to fail", self.case)
-            return super()._solve(warm)
+            return super()._solve(warm, anderson_depth)
 
     again = WarmFails(DEFAULT_GEO, DEFAULT_NGF, 12 * D, r, grid).solve(cold.state)
-    assert starts == [True, False]
+    depth = grid.anderson_depth
+    assert attempts == [(True, depth), (True, RETRY_DEPTH_FACTOR * depth), (False, depth)]
     assert again.converged and again.speed == cold.speed and again.iterations == cold.iterations
+    assert again.attrs["start"] == "planar"
 
 
 def test_local_mu_i_zero_below_yield_and_slides_the_layer_above() -> None:
