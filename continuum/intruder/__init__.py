@@ -13,7 +13,8 @@ in ``INTRUDER_MODELS`` (api.py). See docs/intruder.md for the equations and what
 from __future__ import annotations
 
 from .api import INTRUDER_MODELS, IntruderModel, intruder_speed
-from .framework import ExtraStress, Flow, RodSolution, RodSolver
+from .flow import ExtraStress, Flow, RodSolution
+from .framework import RodSolver
 from .local import YieldForce, yield_force
 from .ngf2d import NGFRodSolver, solve_2d
 from .scene import GridOptions, IntruderSpeed, RodIntruder

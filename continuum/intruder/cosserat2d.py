@@ -42,7 +42,7 @@ import xarray as xr
 
 from ..geometry import PlanarShear
 from ..parameters import CosseratParameters
-from .framework import Flow
+from .flow import Flow
 from .mac import MacGrid, Operators
 from .plastic2d import Discretisation, PlasticLaw, Scales, close_system, corner_xz, inside_rod
 from .scene import GridOptions, RodIntruder

@@ -29,7 +29,8 @@ from .. import ngf
 from ..errors import ConvergenceError, OutOfRangeError
 from ..geometry import PlanarShear
 from ..parameters import NGFParameters
-from .framework import Flow, RodSolver, fill_solid
+from .flow import Flow, fill_solid
+from .framework import RodSolver
 from .mac import MacGrid, assemble, build_operators, rod_mask
 from .scene import GridOptions, RodIntruder
 

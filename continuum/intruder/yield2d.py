@@ -27,7 +27,8 @@ from scipy.sparse.linalg import LinearOperator, gmres, splu
 from .. import solve as solve_planar
 from ..errors import ConvergenceError, OutOfRangeError
 from ..geometry import PlanarShear
-from .framework import P_FLOOR, Flow, RodSolution, RodSolver
+from .flow import Flow, RodSolution
+from .framework import P_FLOOR, RodSolver
 from .mac import MacGrid
 from .regrid import regrid_state, same_cell
 from .plastic2d import Discretisation, PlasticLaw, Scales, averaging_operators, corner_xz, equations, fill_map, inside_rod

@@ -46,6 +46,7 @@ from pipeline.calibration.parameter_sets import model_parameters, normal_stress_
 from pipeline.common.planar_cell import planar_cell
 from pipeline.common.config import load_config
 from pipeline.common.provenance import provenance_attrs
+from pipeline.models.intruder_states import save_states
 
 
 #: Parameter draws solved per intruder model when the config's ``models.intruder_draws`` is absent.
@@ -275,7 +276,6 @@ def main(argv: list[str] | None = None) -> int:
     result, nominal = predict(args.model, params, runs, fields)
     result.attrs.update(provenance_attrs(config))
     if args.states_out is not None:
-        from pipeline.models.intruder_draws import save_states  # (that module builds on this one)
         save_states(nominal, args.states_out, args.model, CELLS_PER_D, provenance_attrs(config))
     atomic.write_netcdf(result, args.out)
     print(f"{args.model}: speeds {result.speed.values} m/s at depths {result.depth_over_d.values} d; "

@@ -2,7 +2,7 @@
 (u_num), as ``model_draws/intruder/{model}.nc``.
 
 The nominal solve (``pipeline.models.intruder``) writes its converged 2D states beside its file
-(``save_states``). The draws and the grid study start from them, so they split into independent
+(``pipeline.models.intruder_states``). The draws and the grid study start from them, so they split into independent
 jobs (issue 45: on the 2-core machine the volume-averaged model's 8 draws and grid study ran
 serially in one job of about 30 CPU minutes, the last job of the default, alone on one core):
 
@@ -37,53 +37,7 @@ from pipeline.common.formats import open_fields
 from pipeline.common.provenance import provenance_attrs
 from pipeline.models.intruder import (CELLS_PER_D, DRAWS_CELLS_PER_D, NOMINAL_REFUSED, REFINED_CELLS_PER_D, Scene,
                                       intruder_draws, scenes_of, solve_scenes, pushed_runs)
-
-#: Separator of a scene index and a state's key in the states file.
-_SEP = "/"
-
-
-def save_states(results: list[IntruderSpeed | None], path: Path, model: str, cells_per_d: float,
-                provenance: dict[str, Any] | None = None) -> None:
-    """The nominal solve's converged 2D states (the warm starts of the draws and the grid study),
-    one group of arrays per scene in ``scenes_of``'s order; a scene without a speed has none.
-    ``provenance`` (the config and software versions) is stored as JSON under ``_provenance``."""
-    arrays: dict[str, np.ndarray] = {}
-    predicted = []
-    for k, result in enumerate(results):
-        predicted.append(result is not None)
-        if result is not None and result.state is not None:
-            arrays.update({f"{k}{_SEP}{name}": np.asarray(v) for name, v in result.state.items()})
-            arrays[f"{k}{_SEP}_speed"] = np.array([result.speed])
-    arrays["_predicted"] = np.array(predicted, dtype=bool)
-    arrays["_cells_per_d"] = np.array([cells_per_d])
-    arrays["_model"] = np.array([model])
-    arrays["_provenance"] = np.array([json.dumps(provenance or {}, default=str)])
-    tmp = atomic.temporary(path)
-    with open(tmp, "wb") as handle:  # (np.savez on a path would append .npz to the temporary name)
-        np.savez(handle, **arrays)
-    tmp.replace(path)
-
-
-def load_states(path: Path, model: str, n_scenes: int) -> tuple[list[IntruderSpeed | None], float]:
-    """``save_states``' file as warm starts (None where the nominal solve gave no speed), and the
-    grid they are on (cells per d). Raises ValueError naming the file if it is another model's or
-    another scene list's."""
-    with np.load(path) as data:
-        stored = str(data["_model"][0])
-        predicted = data["_predicted"]
-        if stored != model or predicted.size != n_scenes:
-            raise ValueError(f"{path}: states of {stored} for {predicted.size} scenes, not of {model} for {n_scenes}")
-        out: list[IntruderSpeed | None] = []
-        for k in range(n_scenes):
-            if not predicted[k]:
-                out.append(None)
-                continue
-            state = {key.split(_SEP, 1)[1]: data[key].copy() for key in data.files
-                     if key.startswith(f"{k}{_SEP}") and not key.endswith(f"{_SEP}_speed")}
-            speed = float(data[f"{k}{_SEP}_speed"][0]) if f"{k}{_SEP}_speed" in data.files else float("nan")
-            out.append(IntruderSpeed(model, speed, True, 0, 0.0, 0.0, 0, "2d", state=state or None))
-        return out, float(data["_cells_per_d"][0])
-
+from pipeline.models.intruder_states import load_states
 
 def draw_parts(n_draws: int, parts: int) -> list[list[int]]:
     """The draw indices of each of ``parts`` jobs (contiguous, sizes differing by one at most)."""

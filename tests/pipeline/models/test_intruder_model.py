@@ -10,8 +10,8 @@ import pytest
 import xarray as xr
 
 from pipeline.models.intruder import predict, scenes_of
-from pipeline.models.intruder_draws import (draw_parts, load_states, merge, predict_draws, save_states, solve_draws,
-                                           solve_refined)
+from pipeline.models.intruder_draws import draw_parts, merge, predict_draws, solve_draws, solve_refined
+from pipeline.models.intruder_states import load_states, save_states
 
 D = 0.002
 MU = {"mu_s": 0.374, "mu_2": 1.023, "I_0": 0.637, "nu_c": 0.587, "a": 0.141}
