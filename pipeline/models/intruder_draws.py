@@ -96,12 +96,16 @@ def solve_refined(model: str, params: dict[str, Any], scenes: list[Scene], nomin
     ``continuum.intruder.regrid``; measured on a 14 d bed, 2 -> 3 cells per d, the same U to
     round-off in about half the CPU time of a cold solve, for critical state and mu(I))."""
     t0 = time.perf_counter()
-    results, _ = solve_scenes(model, model_parameters(params, model), scenes, refined_cells_per_d,
-                              warm=nominal, only=[r is not None for r in nominal])
+    results, reasons = solve_scenes(model, model_parameters(params, model), scenes, refined_cells_per_d,
+                                    warm=nominal, only=[r is not None for r in nominal])
     out = xr.Dataset(coords=_scene_coords(scenes))
     out["speed_refined"] = ("run", np.array([r.speed if r is not None else np.nan for r in results]),
                             {"units": "m s-1", "long_name": f"calibration's values, {refined_cells_per_d:g} cells per d"})
-    out.attrs.update({"refined_seconds": time.perf_counter() - t0, "cells_per_d_refined": refined_cells_per_d})
+    # why a scene has no refined speed (its score then has no u_num from the grid study)
+    failures = {s.run["run"]: reason[:300] for s, reason in zip(scenes, reasons)
+                if reason is not None and reason != NOMINAL_REFUSED}
+    out.attrs.update({"refined_seconds": time.perf_counter() - t0, "cells_per_d_refined": refined_cells_per_d,
+                      "refined_failures": json.dumps(failures)})
     return out
 
 
@@ -127,6 +131,8 @@ def merge(model: str, scenes: list[Scene], draws: list[xr.Dataset], refined: xr.
                       "failures": json.dumps(dict(sorted(failures.items(), key=lambda kv: int(kv[0])))),
                       "draws_seed": seed, "draws_seconds": float(sum(p.attrs["draws_seconds"] for p in draws)),
                       "draws_parts": len(draws), "refined_seconds": refined.attrs["refined_seconds"],
+                      # (a grid-study part written before 2026-12-05 has no record of its failures)
+                      "refined_failures": refined.attrs.get("refined_failures", "{}"),
                       "warm_start": int(warm_start)})
     return out
 

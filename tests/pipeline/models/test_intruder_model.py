@@ -99,6 +99,8 @@ def test_a_scene_without_a_nominal_prediction_is_not_solved_for_draws_or_grid(so
                         cells_per_d=2.0, refined_cells_per_d=3.0, draws_cells_per_d=2.0)
     assert np.isnan(ens.speed.values[0, 1]) and ens.refused.values[0, 1] == 1
     assert np.isnan(ens.speed_refined.values[1]) and json.loads(ens.attrs["failures"]) == {}
+    # a scene the nominal solve has no speed for is not solved on the finer grid: no failure of it
+    assert json.loads(ens.attrs["refined_failures"]) == {}
     assert np.all(np.isfinite(ens.speed.values[0, [0, 2]])) and np.all(np.isfinite(ens.speed_refined.values[[0, 2]]))
 
 
