@@ -84,7 +84,7 @@ def timed(model: str, values: dict[str, float], scene: tuple[float, float], cell
     try:
         res = intruder_speed(model, GEO, parameters(model, values), rod(*scene), LX, GridOptions(cells_per_d=cells), warm=warm)
     except continuum.ContinuumError as exc:
-        return None, time.process_time() - t0, str(exc)[:90]
+        return None, time.process_time() - t0, str(exc)[:300]
     return res, time.process_time() - t0, ""
 
 
