@@ -106,6 +106,7 @@ class YieldRodSolver(RodSolver):
         self.factorisations = 0
         self.last_limit_load: dict[str, float] = {}  # set when ``solve`` computed the limit load
         self._force_fraction = 1.0
+        self._started_warm = False  # whether the last solve_regularised started from a warm state
 
     # ---- the model's law ------------------------------------------------------------------
     @property
@@ -323,6 +324,7 @@ class YieldRodSolver(RodSolver):
         disc = self._discretisation()
         y, stages = self._start(warm, planar, disc)
         started_warm = len(stages) < len(self.regularisations)
+        self._started_warm = started_warm
         by_eps: dict[float, float] = {}
         iterations, res, step = 0, np.nan, np.nan
         y_last = y_previous = y
@@ -430,6 +432,12 @@ class YieldRodSolver(RodSolver):
         try:
             return self.solve_regularised(warm)
         except ConvergenceError:
+            if not self._started_warm:
+                # the state could not start this grid (another cell, or a model that does not
+                # regrid), so that attempt was already the cold one: the same solve again would fail
+                # the same way (measured: the volume-averaged model's 6-cells/d grid study solved
+                # its failing cold continuation twice, 10 CPU minutes each)
+                raise
             self._force_fraction = 1.0
             return self.solve_regularised(None)
 

@@ -178,3 +178,29 @@ def test_a_stage_that_makes_no_progress_stops_at_the_stall_window(monkeypatch: p
     with pytest.raises(continuum.ConvergenceError, match="stalled"):
         solver._newton(y0, disc, 1e-1)
     assert len(evaluations) == yield2d.STALL_ITERATIONS + 1 < yield2d.MAX_NEWTON
+
+
+def test_a_failed_solve_from_a_state_it_could_not_use_is_not_repeated(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A warm state the volume-averaged solver cannot carry onto its grid (it does not regrid)
+    leaves the first attempt a cold one; when that fails (here forced: every Newton stage raises),
+    the cold solve is not run a second time as if it had been a warm start's failure. The pushed
+    rod's own solve runs once; what follows is the limit-load check's own solves (other solver
+    objects)."""
+    rod = RodIntruder.below_top(GEO, 3 * D, 6.5 * D, 100.0)
+    solver = VolumeAveragedRodSolver(GEO, VA, LX, rod, GridOptions(cells_per_d=2))
+    calls: list[object] = []
+    real = VolumeAveragedRodSolver.solve_regularised
+
+    def counted(self, warm=None):
+        calls.append(self)
+        return real(self, warm)
+
+    def fails(self, y, disc, eps_rel, stall=True):
+        raise continuum.ConvergenceError(self.model, 1.0, "forced", self.case)
+
+    monkeypatch.setattr(VolumeAveragedRodSolver, "solve_regularised", counted)
+    monkeypatch.setattr(VolumeAveragedRodSolver, "_newton", fails)
+    other_grid = {k: np.zeros(7) for k in solver.state_keys} | {"grid": np.array([3.0, 5.0, 4 * D, 4 * D])}
+    with pytest.raises(continuum.ConvergenceError):
+        solver.solve(other_grid)
+    assert sum(1 for c in calls if c is solver) == 1
