@@ -131,8 +131,9 @@ def merge(model: str, scenes: list[Scene], draws: list[xr.Dataset], refined: xr.
                       "failures": json.dumps(dict(sorted(failures.items(), key=lambda kv: int(kv[0])))),
                       "draws_seed": seed, "draws_seconds": float(sum(p.attrs["draws_seconds"] for p in draws)),
                       "draws_parts": len(draws), "refined_seconds": refined.attrs["refined_seconds"],
-                      # (a grid-study part written before 2026-12-05 has no record of its failures)
-                      "refined_failures": refined.attrs.get("refined_failures", "{}"),
+                      # a grid-study part written before 2026-12-05 kept no record of its failures:
+                      # null (not known), never an empty record that would claim there were none
+                      "refined_failures": refined.attrs.get("refined_failures", json.dumps(None)),
                       "warm_start": int(warm_start)})
     return out
 
