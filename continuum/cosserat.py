@@ -14,7 +14,7 @@ so t(M, z) is the small root of (1 + beta) t^2 - 2 tau t + tau^2 - Y^2 + M^2 / l
 couple stress obeys the Riccati equation dM/dz = -2 t(M, z), and with A = 1 - beta t / s and
 q = gammadot A = 2 omega the kinematics reduce to d ln q / dz = 2 M / (l^2 s A).
 
-Walls: no slip, and the grain spin is chi_w times the vorticity gammadot / 2 (``wall_spin_ratio``),
+Walls: Navier slip b gammadot (``PlanarShear.slip_length``; 0 is no slip), and the grain spin is chi_w times the vorticity gammadot / 2 (``wall_spin_ratio``),
 i.e. A = chi_w, which fixes t and s at the wall and, by the yield condition, |M|. The couple stress
 is positive at the bottom wall and negative at the top wall (the two walls exert the same couple
 traction on the layer; in a uniform layer the solution is then symmetric). tau is the root of
@@ -162,10 +162,13 @@ def solve(geometry: PlanarShear, params: CosseratParameters, n_grid: int = 400, 
     x = log_q - log_q[-1]
     # below e^-600 of the top value the creep is set to exactly 0 (no subnormal underflow)
     shape = np.where(x < -600.0, 0.0, np.exp(np.maximum(x, -600.0))) / A
-    scale = V / np.trapezoid(shape, z)
+    # The stress state is rate-independent; the walls' Navier slip (b gammadot at each) only
+    # shares the wall speed between the band and the two walls.
+    b = geometry.slip_length
+    scale = V / (np.trapezoid(shape, z) + b * (shape[0] + shape[-1]))
     gammadot = scale * shape
-    u = cumulative_trapezoid(gammadot, z)
-    residual_u = abs(u[-1] / V - 1.0)
+    u = b * gammadot[0] + cumulative_trapezoid(gammadot, z)
+    residual_u = abs((u[-1] + b * gammadot[-1]) / V - 1.0)
     if residual_u > _RTOL:
         raise ConvergenceError(MODEL, residual_u, "wall speed not met", case)
     attrs = parameter_attrs(cs)
@@ -175,5 +178,5 @@ def solve(geometry: PlanarShear, params: CosseratParameters, n_grid: int = 400, 
         {"u_x": u, "shear_rate": gammadot, "nu": nu, "p": p, "mu": tau / p, "spin": 0.5 * gammadot * A},
         converged=True, iterations=iterations, residual=residual,
         solve_seconds=time.perf_counter() - t0, n_grid=n_grid, parameters=attrs,
-        extra_attrs={"tau": float(tau)},
+        extra_attrs={"tau": float(tau), "slip_length": b, "top_wall_slip": b * float(gammadot[-1])},
     )

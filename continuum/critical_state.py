@@ -77,6 +77,8 @@ def solve(geometry: PlanarShear, params: CriticalStateParameters, n_grid: int = 
     return build_solution(
         MODEL, geometry, z, fields, converged=True, iterations=state.events, residual=state.residual,
         solve_seconds=time.perf_counter() - t0, n_grid=n_grid, parameters=parameter_attrs(params),
+        # A band of zero width has no finite shear rate: the Navier slip is not defined on it, and
+        # a band on the top wall is itself the slip (geometry.slip_length changes nothing).
         extra_attrs={"tau": state.tau, "shear_band_height": band_height,
-                     "velocity_determined": int(state.band >= 0)},
+                     "velocity_determined": int(state.band >= 0), "slip_length": geometry.slip_length},
     )

@@ -27,6 +27,12 @@ class PlanarShear:
             load plus weight); the models' constitutive laws are written in p, as mu(I) is, so
             p = sigma_zz / normal_stress_ratio. 1 means no normal-stress differences; a DEM
             value is measured on the rheometer (taken independent of depth and I).
+        slip_length: Navier slip length b of both walls (m, >= 0): the grains next to a wall move
+            relative to it by b times the shear rate there, u(H) = V - b gammadot(H) at the top and
+            u(0) = b gammadot(0) at the bottom (the rough DEM wall's velocity jump at its contact
+            plane, docs/models.md "The wall"). 0 is no slip. A rate-independent model whose
+            shear concentrates in a band of zero width has no finite wall shear rate: there the
+            band is the slip, and b changes nothing.
     """
 
     depth: float
@@ -36,6 +42,7 @@ class PlanarShear:
     d: float
     rho_s: float
     normal_stress_ratio: float = 1.0
+    slip_length: float = 0.0
 
     @property
     def top_pressure(self) -> float:
@@ -59,5 +66,7 @@ class PlanarShear:
         if not 0.5 < self.normal_stress_ratio < 2.0:
             raise ValueError(f"PlanarShear.normal_stress_ratio (sigma_zz / p) = {self.normal_stress_ratio!r} is "
                              "outside (0.5, 2): not a dense granular flow")
+        if not 0.0 <= self.slip_length < self.depth:
+            raise ValueError(f"PlanarShear.slip_length = {self.slip_length!r} m must be >= 0 and below the depth")
         if self.depth < 2.0 * self.d:
             raise ValueError(f"PlanarShear.depth={self.depth!r} m is under two grain diameters (d={self.d!r} m)")

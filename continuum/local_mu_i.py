@@ -3,7 +3,8 @@
 Steady planar shear: tau is uniform and p(z) = P_wall + g rho_s int_z^H nu dz'. At each height
 mu = tau / p, the shear rate is gammadot = I(mu) sqrt(p / rho_s) / d and nu = nu_c - a I(mu).
 Where mu <= mu_s the model predicts no flow: gammadot = 0 and u_x = 0 exactly (nu = nu_c there,
-the law at I = 0). tau is fixed by the wall speed: int_0^H gammadot dz = V.
+the law at I = 0). tau is fixed by the wall speed: int_0^H gammadot dz + b (gammadot(H) +
+gammadot(0)) = V, b the walls' Navier slip length (``PlanarShear.slip_length``).
 
 Why the flowing layer is solved in the pressure variable: every local quantity depends on z only
 through p, and dz/dp = -1 / (g rho_s nu(p)), so with p as the independent variable the weight, the
@@ -104,10 +105,18 @@ def solve(geometry: PlanarShear, params: LocalMuIParameters, n_grid: int = 200, 
 
     i_limit = min(nu_law.I_max, 1e6)
 
+    b = geometry.slip_length
+
+    def wall_slips(layer: dict[str, np.ndarray]) -> tuple[float, float]:
+        # Navier slip at each wall: b times the shear rate there (0 at a bottom wall at rest)
+        bottom = b * float(layer["gammadot"][-1]) if not bool(layer["yield_inside"]) else 0.0
+        return b * float(layer["gammadot"][0]), bottom
+
     def speed_mismatch(inertial_top: float) -> float:
         tau = float(mu_law.mu(inertial_top)) * P
         layer = _flowing_layer(tau, geometry, params, n_grid)
-        return layer["velocity_drop"][-1] / V - 1.0
+        top_slip, bottom_slip = wall_slips(layer)
+        return (layer["velocity_drop"][-1] + top_slip + bottom_slip) / V - 1.0
 
     # Bracket the top-wall inertial number: V(I_top) rises monotonically from 0 at I_top = 0.
     lo, hi = 0.0, 1e-8
@@ -127,7 +136,8 @@ def solve(geometry: PlanarShear, params: LocalMuIParameters, n_grid: int = 200, 
     layer = _flowing_layer(tau, geometry, params, n_grid)
     # flowing layer, reordered bottom to top
     z_f, p_f, nu_f, gd_f = (layer[k][::-1] for k in ("z", "p", "nu", "gammadot"))
-    u_f = V - layer["velocity_drop"][::-1]
+    top_slip, bottom_slip = wall_slips(layer)
+    u_f = V - top_slip - layer["velocity_drop"][::-1]
     z_yield = float(z_f[0])
     if bool(layer["yield_inside"]) and z_yield > 0.0:
         z_s = np.linspace(0.0, z_yield, n_grid, endpoint=False)
@@ -140,22 +150,24 @@ def solve(geometry: PlanarShear, params: LocalMuIParameters, n_grid: int = 200, 
         u[n_grid] = 0.0  # yield plane: the drop integrates to V there up to the root tolerance
     else:
         z, p, nu, u, gd = z_f, p_f, nu_f, u_f, gd_f
-        u[0] = 0.0
+        u[0] = bottom_slip
         z_yield = 0.0
     return build_solution(
         MODEL, geometry, z, {"u_x": u, "shear_rate": gd, "nu": nu, "p": p, "mu": tau / p},
         converged=True, iterations=iterations, residual=residual,
         solve_seconds=time.perf_counter() - t0, n_grid=n_grid, parameters=parameters,
-        extra_attrs={"tau": tau, "yield_height": z_yield},
+        extra_attrs={"tau": tau, "yield_height": z_yield, "slip_length": b, "top_wall_slip": top_slip},
     )
 
 
 def _homogeneous(geometry: PlanarShear, params: LocalMuIParameters, n_grid: int,
                  parameters: dict[str, float], t0: float) -> xr.Dataset:
-    """Exact solution at uniform pressure: gammadot = V / H and mu = mu(I) everywhere."""
+    """Exact solution at uniform pressure: gammadot = V / (H + 2 b) (each wall slips by b gammadot)
+    and mu = mu(I) everywhere."""
     mu_law, nu_law = params.mu_i, params.solid_fraction
     z = np.linspace(0.0, geometry.depth, n_grid)
-    gammadot = geometry.wall_speed / geometry.depth
+    b = geometry.slip_length
+    gammadot = geometry.wall_speed / (geometry.depth + 2.0 * b)
     P = geometry.top_pressure
     if geometry.gravity != 0.0:
         raise OutOfRangeError(MODEL, "a bed at rest under gravity has no unique stress state")
@@ -166,9 +178,9 @@ def _homogeneous(geometry: PlanarShear, params: LocalMuIParameters, n_grid: int,
     ones = np.ones_like(z)
     return build_solution(
         MODEL, geometry, z,
-        {"u_x": gammadot * z, "shear_rate": gammadot * ones, "nu": float(nu_law.nu(inertial)) * ones,
+        {"u_x": gammadot * (z + b), "shear_rate": gammadot * ones, "nu": float(nu_law.nu(inertial)) * ones,
          "p": P * ones, "mu": mu * ones},
         converged=True, iterations=0, residual=0.0, solve_seconds=time.perf_counter() - t0,
         n_grid=n_grid, parameters=parameters,
-        extra_attrs={"tau": mu * P, "yield_height": 0.0},
+        extra_attrs={"tau": mu * P, "yield_height": 0.0, "slip_length": b, "top_wall_slip": b * gammadot},
     )

@@ -9,7 +9,8 @@ which is xi^2 g'' = g - g_loc with xi = A d / sqrt(|mu - mu_s|), multiplied thro
 that it stays regular at mu = mu_s (where xi diverges). |mu - mu_s| is floored at
 ``NGFParameters.delta_mu`` (the documented cap on xi). Walls: dg/dz = 0 (zero fluidity flux, the
 common choice of Henann & Kamrin). For a given tau the problem is linear in g: a tridiagonal
-solve; tau is the root of int_0^H g mu dz = V (brentq).
+solve; tau is the root of int_0^H g mu dz + b (gammadot(0) + gammadot(H)) = V (brentq), b the
+walls' Navier slip length (``PlanarShear.slip_length``).
 
 NGF has no dilatancy law: the layer's weight uses a constant solid fraction ``params.nu``, and no
 nu profile is returned.
@@ -102,9 +103,12 @@ def solve(geometry: PlanarShear, params: NGFParameters, n_grid: int = 200, case:
         g = fluidity_profile(z, mu, p, params, geometry.d, geometry.rho_s)
         return mu, g * mu
 
+    b = geometry.slip_length
+
     def speed_mismatch(tau: float) -> float:
+        # the band's velocity drop plus each wall's Navier slip b gammadot
         _, gammadot = profile(tau)
-        return np.trapezoid(gammadot, z) / V - 1.0
+        return (np.trapezoid(gammadot, z) + b * (gammadot[0] + gammadot[-1])) / V - 1.0
 
     if V == 0.0:
         raise OutOfRangeError(MODEL, "a layer at rest has no unique shear stress", case)
@@ -124,11 +128,11 @@ def solve(geometry: PlanarShear, params: NGFParameters, n_grid: int = 200, case:
         raise ConvergenceError(MODEL, residual, "wall-speed condition not met", case)
     if np.any(gammadot < 0.0):
         raise ConvergenceError(MODEL, residual, "negative fluidity: grid too coarse for xi", case)
-    u = cumulative_trapezoid(gammadot, z)
+    u = b * gammadot[0] + cumulative_trapezoid(gammadot, z)
     return build_solution(
         MODEL, geometry, z,
         {"u_x": u, "shear_rate": gammadot, "p": p, "mu": mu, "fluidity": gammadot / mu},
         converged=True, iterations=iterations, residual=residual,
         solve_seconds=time.perf_counter() - t0, n_grid=n_grid, parameters=parameters,
-        extra_attrs={"tau": float(tau)},
+        extra_attrs={"tau": float(tau), "slip_length": b, "top_wall_slip": b * float(gammadot[-1])},
     )

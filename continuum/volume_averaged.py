@@ -40,8 +40,9 @@ MODEL = "volume_averaged"
 
 
 def creep_profile(z: np.ndarray, z_star: float, depth: float, length: float,
-                  wall_speed: float) -> tuple[np.ndarray, np.ndarray]:
-    """u_x and gammadot for gammadot = C exp(-|z - z*| / l) with int_0^H gammadot dz = V.
+                  wall_speed: float, slip_length: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """u_x and gammadot for gammadot = C exp(-|z - z*| / l) with int_0^H gammadot dz + b
+    (gammadot(0) + gammadot(H)) = V, b the walls' Navier slip length (m; u(0) = b gammadot(0)).
 
     Closed form of the cumulative integral, so the only grid dependence is where z* lies.
     """
@@ -54,8 +55,11 @@ def creep_profile(z: np.ndarray, z_star: float, depth: float, length: float,
         weight(z, z_star) - e_bottom,
         (1.0 - e_bottom) + (1.0 - weight(z, z_star)),
     )
-    total = (1.0 - e_bottom) + (1.0 - weight(np.array([depth]), z_star)[0])
-    u = wall_speed * integral / total
+    e_top = weight(np.array([depth]), z_star)[0]
+    # the walls' slips, b gammadot, in the same units (the integral over l)
+    slips = slip_length / length * (e_bottom + e_top)
+    total = (1.0 - e_bottom) + (1.0 - e_top) + slips
+    u = wall_speed * (integral + slip_length / length * e_bottom) / total
     gammadot = wall_speed * weight(z, z_star) / (length * total)
     return u, gammadot
 
@@ -88,7 +92,8 @@ def solve(geometry: PlanarShear, params: VolumeAveragedParameters, n_grid: int =
     band_height = -1.0
     if state.band >= 0:
         band_height = float(state.z[state.band])
-        u, gammadot = creep_profile(state.z, band_height, final_depth, params.l, geometry.wall_speed)
+        u, gammadot = creep_profile(state.z, band_height, final_depth, params.l, geometry.wall_speed,
+                                    geometry.slip_length)
         fields.update({"u_x": u, "shear_rate": gammadot})
     attrs = parameter_attrs(cs)
     attrs["l"] = params.l
@@ -97,5 +102,7 @@ def solve(geometry: PlanarShear, params: VolumeAveragedParameters, n_grid: int =
         residual=state.residual, solve_seconds=time.perf_counter() - t0, n_grid=n_grid,
         parameters=attrs,
         extra_attrs={"tau": state.tau, "shear_band_height": band_height, "final_depth": final_depth,
-                     "velocity_determined": int(state.band >= 0)},
+                     "velocity_determined": int(state.band >= 0), "slip_length": geometry.slip_length,
+                     "top_wall_slip": (geometry.slip_length * float(fields["shear_rate"][-1])
+                                       if "shear_rate" in fields else float("nan"))},
     )
