@@ -59,8 +59,8 @@ class IntruderModel:
 def _ngf_frozen(geometry: PlanarShear, params: NGFParameters, intruder: RodIntruder, cell_length_x: float,
                 grid: GridOptions, planar_options: dict, case: str | None) -> IntruderSpeed:
     out = solve_frozen(geometry, params, cell_length_x, intruder, grid, case)
-    attrs = {k: out[k] for k in ("tau_top", "vertical_force", "torque", "mu_max", "p_min", "fluidity_floor",
-                                 "floor_at_rod") if k in out}
+    attrs = {k: out[k] for k in ("tau_top", "top_wall_slip", "vertical_force", "torque", "mu_max", "p_min",
+                                 "fluidity_floor", "floor_at_rod") if k in out}
     attrs["nx"], attrs["nz"] = out["fields"].attrs["nx"], out["fields"].attrs["nz"]
     return IntruderSpeed(FROZEN, out["speed"], out["converged"], out["iterations"], out["residual"],
                          out["solve_seconds"], out["n_grid"], "frozen", out["drift_speed"], out["mobility"],

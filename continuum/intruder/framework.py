@@ -4,7 +4,9 @@ The framework owns the mechanics; a model owns its constitutive law.
 
 Mechanics (framework): the Stokes-type momentum balance on the periodic MAC cell of ``mac.py``
 (x periodic with period L_x, rigid rough walls at z = 0 at rest and z = H moving at V along +x,
-gravity along -z, compressive-positive stresses)::
+with the Navier slip of ``PlanarShear.slip_length`` b at both, u = V - b du/dz at the top and
+u = b du/dz at the bottom (``mac.build_operators``; b = 0 is no slip), gravity along -z,
+compressive-positive stresses)::
 
     div(2 eta D + S) - grad(pi) - rho g e_z = 0,     div u = 0,
 
@@ -65,6 +67,8 @@ and optionally
 - ``output_fields(flow, fields)`` -> dict name -> (array on the cells, units, long_name), added
   to the solution's Dataset.
 - ``check(flow, fields)``: raise ``OutOfRangeError`` for a converged state the model refuses.
+- ``wall_slip_length`` -> float: the walls' Navier slip length (default ``geometry.slip_length``;
+  0 for a model whose wall layer is a band of zero width, where the band is the slip).
 
 Solid (rod) cells: the framework fills every field and p there with the nearest material cell's
 value after each update (only corner averages next to the rod surface see them); tolerances are
@@ -129,7 +133,7 @@ class RodSolver(ABC):
         self.cell_length_x = cell_length_x
         nx, nz = options.counts(geometry, cell_length_x)
         self.grid = MacGrid(nx, nz, cell_length_x / nx, geometry.depth / nz)
-        self.ops = build_operators(self.grid)
+        self.ops = build_operators(self.grid, self.wall_slip_length)
         self.mask: RodMask = rod_mask(self.grid, rod, 0.5 * cell_length_x)
         self.material = ~self.mask.solid_cells
         self.x_cells, self.z_cells = self.grid.cell_xz()
@@ -173,6 +177,13 @@ class RodSolver(ABC):
 
     def check(self, flow: Flow, fields: dict[str, np.ndarray]) -> None:
         return None
+
+    @property
+    def wall_slip_length(self) -> float:
+        """The Navier slip length b (m) of the walls' condition: ``geometry.slip_length``. A model
+        whose wall layer is a band of zero width (no finite wall shear rate) takes 0: the band is
+        the slip and b changes nothing (``PlanarShear``)."""
+        return self.geometry.slip_length
 
     # ---- the framework's part ---------------------------------------------------------------
     @property
@@ -237,6 +248,12 @@ class RodSolver(ABC):
                     eta=eta, d_xz_corners=d_xz_k, s_xz_corners=s_xz_k, top_speed=V, rod_speed=float(rod_speed),
                     tau_top=float(s_xz_k[nz * nx:].mean()), rod_force_parts=parts, x=x, system=system,
                     rhs_load=b_load)
+
+    def top_wall_slip(self, flow: Flow) -> float:
+        """V minus the grains' mean velocity along x in the top wall plane (m s-1): b times the
+        wall's shear rate, averaged along the wall (0 for b = 0)."""
+        _, top = self.ops.wall_velocities(flow.u, flow.top_speed, self.grid.nx)
+        return float(flow.top_speed - top.mean())
 
     def _flow_of(self, fields: dict[str, np.ndarray], p: np.ndarray) -> Flow:
         self.evaluations += 1
@@ -368,7 +385,7 @@ class RodSolver(ABC):
         ds = self._dataset(flow, fields)
         attrs = {"tau_top": flow.tau_top, "p_min": p_min, "mu_max": float(flow.mu[mat].max()),
                  "nx": self.grid.nx, "nz": self.grid.nz, "start": "warm" if warm is not None else "planar",
-                 "anderson_depth": anderson_depth}
+                 "anderson_depth": anderson_depth, "top_wall_slip": self.top_wall_slip(flow)}
         attrs.update(self._rod_outputs(flow))
         return RodSolution(self.model, flow.rod_speed, True, iterations, last, time.perf_counter() - t0,
                            self.grid.n_cells, flow, state, ds, planar, planar_seconds, attrs)

@@ -13,9 +13,11 @@ Mohr-Coulomb with that sin phi), the smaller of two upper-bound estimates:
 Above F_l the rod slides the layer under it. For the rate-dependent mu(I) that mechanism has a
 speed (``layer_sliding_speed``): the rod, smeared over the cell's length, adds F / L_x to the
 shear stress below its axis, tau(z) = tau_top + (F / L_x) [z < z_i]; every height then shears
-at gammadot = I(tau / p) sqrt(p / rho_s) / d, the top-wall stress tau_top is set by u(H) = V,
-and the rod moves with the material at its height, U = u(z_i) averaged over its disc. The
-rate-independent models (critical state, the volume-averaged model) have no such speed.
+at gammadot = I(tau / p) sqrt(p / rho_s) / d, the top-wall stress tau_top is set by u(H) = V
+(with the walls' Navier slip b = ``PlanarShear.slip_length``: u(0) = b gammadot(0) and
+u(H) = V - b gammadot(H)), and the rod moves with the material at its height, U = u(z_i) averaged
+over its disc. The rate-independent models (critical state, the volume-averaged model) have no
+such speed.
 """
 from __future__ import annotations
 
@@ -75,7 +77,8 @@ def check_geometry(geometry: PlanarShear, rod: RodIntruder, cell_length_x: float
 def layer_sliding_speed(planar: xr.Dataset, mu_i: MuIParameters, geometry: PlanarShear, rod: RodIntruder,
                         cell_length_x: float, case: str | None = None) -> tuple[float, float]:
     """Rod speed U (m s-1) of local mu(I) with the rod smeared into a layer (module docstring), and
-    the top-wall shear stress tau_top (Pa) that keeps u(H) = V.
+    the top-wall shear stress tau_top (Pa) that keeps u(H) = V - b gammadot(H) (b the walls' slip
+    length; the bottom wall's slip b gammadot(0) starts u).
 
     The pressure profile is the 1D solution's (the push does not change the vertical balance; the
     change of nu with I under the extra stress is neglected). With F = 0 this is the 1D solution.
@@ -85,19 +88,26 @@ def layer_sliding_speed(planar: xr.Dataset, mu_i: MuIParameters, geometry: Plana
     jump = rod.force_per_length / cell_length_x
     below = z < rod.depth_from_bottom
     scale = np.sqrt(p / geometry.rho_s) / geometry.d
+    b = geometry.slip_length
 
-    def velocity(tau_top: float) -> np.ndarray:
+    def rate(tau_top: float) -> np.ndarray:
         mu = (tau_top + jump * below) / p
         if np.any(np.abs(mu) >= mu_i.mu_2):
             raise OverflowError
         # mu(I) is isotropic: the shear rate takes the sign of the shear stress.
-        return cumulative_trapezoid(np.sign(mu) * mu_i.inertial_number(np.abs(mu)) * scale, z, initial=0.0)
+        return np.sign(mu) * mu_i.inertial_number(np.abs(mu)) * scale
+
+    def velocity(gammadot: np.ndarray) -> np.ndarray:
+        # the bottom wall's Navier slip b gammadot(0) starts the profile
+        return b * gammadot[0] + cumulative_trapezoid(gammadot, z, initial=0.0)
 
     def mismatch(tau_top: float) -> float:
         try:
-            return float(velocity(tau_top)[-1]) - geometry.wall_speed
+            gammadot = rate(tau_top)
         except OverflowError:
             return np.inf if tau_top > 0.0 else -np.inf
+        # u(H) + b gammadot(H) = V: the top wall's Navier slip
+        return float(velocity(gammadot)[-1]) + b * float(gammadot[-1]) - geometry.wall_speed
 
     # tau_top may be negative (the top wall holds back a plug the rod drives); every height must
     # stay below mu_2 p, which bounds it on both sides.
@@ -109,5 +119,5 @@ def layer_sliding_speed(planar: xr.Dataset, mu_i: MuIParameters, geometry: Plana
         raise OutOfRangeError("local_mu_i", f"F / L_x = {jump:.3g} Pa: no top-wall stress within mu_2 p gives the "
                               f"wall speed (the layer under the rod cannot carry the push)", case)
     tau_top = brentq(mismatch, lo, hi, xtol=1e-12, rtol=1e-12)
-    speed = disc_average(z, velocity(tau_top), rod.depth_from_bottom, rod.radius)
+    speed = disc_average(z, velocity(rate(tau_top)), rod.depth_from_bottom, rod.radius)
     return speed, tau_top

@@ -9,7 +9,9 @@ walls); corners (i hx, j hz), j = 0..nz, carry the shear stress. Flat index = j 
 Equations (incompressible, inertia neglected, tensile-positive Cauchy stress
 T = -p I + 2 eta D; p is the compressive-positive pressure):
     div(2 eta D) - grad p - rho g e_z = 0,   div u = 0.
-Walls: no slip, u = U_bottom (= 0) at z = 0 and u = U_top at z = H (ghost values), w = 0.
+Walls: w = 0, and along x the Navier (Robin) condition of ``PlanarShear.slip_length`` b,
+u = U_top - b du/dz at z = H and u = U_bottom (= 0) + b du/dz at z = 0 (b = 0: no slip), imposed
+through the ghost u-row beyond each wall (``build_operators``).
 Rod: the faces whose position lies inside the rod are set to the rigid motion (U_rod, 0);
 pressure cells whose four faces are all rod faces are pinned (their pressure does not act on
 the fluid, and the forces summed over the rod do not depend on it).
@@ -67,21 +69,44 @@ class Operators:
 
     dxu: sp.csr_matrix   # du/dx at cell centres, (n_cells, n_u)
     dzw: sp.csr_matrix   # dw/dz at cell centres, (n_cells, n_w)
-    dzu: sp.csr_matrix   # du/dz at corners (ghost-node walls), (n_corners, n_u)
+    dzu: sp.csr_matrix   # du/dz at corners (ghost-node walls with the Navier slip), (n_corners, n_u)
     dxw: sp.csr_matrix   # dw/dx at corners, (n_corners, n_w)
     kz: sp.csr_matrix    # d/dz of a corner field at u-faces, (n_u, n_corners)
     lift_top: np.ndarray  # du/dz at corners per unit top-wall speed
     lift_bottom: np.ndarray  # du/dz at corners per unit bottom-wall speed
     corner_weights: sp.csr_matrix  # cell -> corner averaging (1/4 inside, 1/2 on walls)
     centre_from_corners: sp.csr_matrix  # corner -> cell averaging (1/4 each)
+    slip_length: float = 0.0  # the walls' Navier slip length b (m) built into dzu and the lifts
+
+    def wall_velocities(self, u: np.ndarray, top_speed: float, nx: int) -> tuple[np.ndarray, np.ndarray]:
+        """The grains' velocity along x in the bottom and top wall planes at the nx wall corners
+        (m s-1): U_bottom + b du/dz and U_top - b du/dz with the walls' du/dz of ``dzu`` (the
+        Navier condition the ghost rows impose; 0 and U_top exactly for b = 0). The bottom wall is
+        at rest."""
+        rate = self.dzu @ u + self.lift_top * top_speed
+        return self.slip_length * rate[:nx], top_speed - self.slip_length * rate[-nx:]
 
 
 def _coo(rows: list[np.ndarray], cols: list[np.ndarray], vals: list[np.ndarray], shape: tuple[int, int]) -> sp.csr_matrix:
     return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=shape)
 
 
-def build_operators(grid: MacGrid) -> Operators:
+def build_operators(grid: MacGrid, slip_length: float = 0.0) -> Operators:
+    """The difference operators of ``grid`` with the walls' Navier slip length b (m, >= 0).
+
+    Wall treatment (ghost u-row half a cell beyond each wall): the wall-plane velocity is the
+    mean of the ghost and the first row, the wall shear rate the one-sided difference of the two,
+    and the ghost is chosen so that they satisfy the Navier (Robin) condition. At the top wall,
+    with u_1 the row under it, u_wall = (u_1 + u_g) / 2 = U_top - b (u_g - u_1) / hz gives
+    du/dz = (U_top - u_1) / (b + hz / 2); at the bottom du/dz = (u_1 - U_bottom) / (b + hz / 2).
+    With b = 0 these are the no-slip ghosts (u_g = 2 U_wall - u_1, du/dz = 2 (U_top - u_1) / hz)
+    bit for bit; a profile linear in z is exact for any b.
+    """
     nx, nz, hx, hz = grid.nx, grid.nz, grid.hx, grid.hz
+    if not slip_length >= 0.0:
+        raise ValueError(f"slip_length must be >= 0, got {slip_length!r}")
+    # 1 / (b + hz / 2), written so that b = 0 gives 2 / hz exactly
+    wall = 2.0 / (hz + 2.0 * slip_length)
     i, j = np.meshgrid(np.arange(nx), np.arange(nz))
     i, j = i.ravel(), j.ravel()
     c = j * nx + i
@@ -105,10 +130,10 @@ def build_operators(grid: MacGrid) -> Operators:
     dzu = _coo(
         [k[inner], k[inner], k[bot], k[top]],
         [jc[inner] * nx + ic[inner], (jc[inner] - 1) * nx + ic[inner], ic[bot], (nz - 1) * nx + ic[top]],
-        [ones_k[inner] / hz, -ones_k[inner] / hz, 2.0 * ones_k[bot] / hz, -2.0 * ones_k[top] / hz],
+        [ones_k[inner] / hz, -ones_k[inner] / hz, wall * ones_k[bot], -wall * ones_k[top]],
         (nk, nc))
-    lift_top = np.where(top, 2.0 / hz, 0.0)
-    lift_bottom = np.where(bot, -2.0 / hz, 0.0)
+    lift_top = np.where(top, wall, 0.0)
+    lift_bottom = np.where(bot, -wall, 0.0)
     im = (ic - 1) % nx
     dxw = _coo([k[inner], k[inner]],
                [(jc[inner] - 1) * nx + ic[inner], (jc[inner] - 1) * nx + im[inner]],
@@ -134,7 +159,8 @@ def build_operators(grid: MacGrid) -> Operators:
             cols.append((j + dj) * nx + (i + di) % nx)
             vals.append(0.25 * one)
     centre_from_corners = _coo(rows, cols, vals, (nc, nk))
-    return Operators(dxu, dzw, dzu, dxw, kz, lift_top, lift_bottom, corner_weights, centre_from_corners)
+    return Operators(dxu, dzw, dzu, dxw, kz, lift_top, lift_bottom, corner_weights, centre_from_corners,
+                     float(slip_length))
 
 
 @dataclass(frozen=True)
@@ -247,14 +273,43 @@ class StokesSystem:
         return 2.0 * self.eta_centre * (self.ops.dxu @ u)
 
 
+def wall_fluidity(grid: MacGrid, corner: np.ndarray, cells: np.ndarray, slip_length: float) -> np.ndarray:
+    """``corner`` (1/eta at the corners, the cells' averages) with the wall corners' values moved
+    to the walls for the Navier slip length b (m).
+
+    The wall layer's compliance is (b + hz / 2) / eta_wall: the slip b over the viscosity in the
+    wall plane plus the half cell to the first u-row. Each wall corner's f = 1/eta is the
+    geometric interpolation f_1^(1 - theta) f_w^theta, theta = b / (b + hz / 2), between the
+    first row's f_1 (the two cells beside the corner) and its log-linear extrapolation to the
+    wall f_w = f_1 (f_1 / f_2)^(1/2) (f_2 the second row's): second order for the slip as for the
+    half cell, exact for an exponential creep, positive, and f_1 itself as b -> 0.
+    """
+    nx, nz = grid.nx, grid.nz
+    theta = slip_length / (slip_length + 0.5 * grid.hz)
+    out = np.array(corner, dtype=float, copy=True)
+    f = cells.reshape(nz, nx)
+    for k0, j1, j2 in ((0, 0, 1), (nz * nx, nz - 1, nz - 2)):
+        f1 = 0.5 * (f[j1] + np.roll(f[j1], 1))  # corner ic touches cells ic - 1 and ic
+        f2 = 0.5 * (f[j2] + np.roll(f[j2], 1))
+        out[k0:k0 + nx] = f1 * (f1 / f2) ** (0.5 * theta)
+    return out
+
+
 def assemble(grid: MacGrid, ops: Operators, mask: RodMask, eta_centre: np.ndarray) -> StokesSystem:
     """Assemble and factorise the Stokes system for the viscosity eta_centre (Pa s) at the cells.
 
     The corner viscosity is the harmonic mean of the adjacent cells (arithmetic mean of the
     fluidity-like 1/eta), which keeps the flux right across the steep exponential variation of
     the viscosity in the creeping zone.
+
+    With wall slip (``ops.slip_length`` b > 0) the wall corners' viscosity is moved toward the
+    wall (``wall_fluidity``): the slip velocity b du/dz is set by the viscosity in the wall plane,
+    and the row under it (half a cell off) would make it first order in the grid.
     """
-    eta_corner = 1.0 / (ops.corner_weights @ (1.0 / eta_centre))
+    fluidity = ops.corner_weights @ (1.0 / eta_centre)
+    if ops.slip_length > 0.0:
+        fluidity = wall_fluidity(grid, fluidity, 1.0 / eta_centre, ops.slip_length)
+    eta_corner = 1.0 / fluidity
     ec = sp.diags(eta_centre)
     ek = sp.diags(eta_corner)
     kx = -ops.dxw.T

@@ -4,7 +4,9 @@ Equations (see docs/intruder.md), with p = pi / normal_stress_ratio (``framework
     div(2 eta D) - grad pi - rho_s nu g e_z = 0,   div u = 0,   eta = p / g,
     A^2 d^2 lap g = |mu - mu_s| (g - g_loc(mu, p)),   mu = tau / p,  tau = |T'| / sqrt(2),
 i.e. shear rate = g mu with the stress parallel to the deformation rate (Henann & Kamrin 2013).
-Walls: no slip; dg/dn = 0. Rod: no slip (rigid translation (U, 0)); dg/dn = 0 on its surface.
+Walls: Navier slip u = V - b du/dz (top), u = b du/dz (bottom), b = ``PlanarShear.slip_length``
+(0: no slip; ``mac.build_operators``); dg/dn = 0. Rod: no slip (rigid translation (U, 0)); dg/dn = 0
+on its surface.
 
 Two solutions:
 - ``NGFRodSolver`` (model ``ngf``): the model as written, the fluidity equation solved with the
@@ -151,7 +153,7 @@ def solve_frozen(geometry: PlanarShear, params: NGFParameters, cell_length_x: fl
     pressure convention, p = sigma_zz / normal_stress_ratio).
 
     Returns a dict: ``speed`` (m s-1; None without rod), ``fields``, ``converged``,
-    ``iterations`` (1), ``residual`` (momentum, over P_wall / d), ``n_grid``, ``tau_top``,
+    ``iterations`` (1), ``residual`` (momentum, over P_wall / d), ``n_grid``, ``tau_top``, ``top_wall_slip``,
     ``drift_speed``, ``mobility``, ``mu_max``, ``p_min``, ``fluidity_floor``, ``floor_at_rod``,
     ``planar_solve_seconds``, ``solve_seconds``.
     """
@@ -177,6 +179,7 @@ def solve_frozen(geometry: PlanarShear, params: NGFParameters, cell_length_x: fl
     out: dict[str, Any] = {
         "converged": residual <= RESIDUAL_TOL, "iterations": 1, "residual": residual, "n_grid": nc,
         "fluidity_floor": FLUIDITY_FLOOR * float(g.max()), "floor_at_rod": floor_at_rod, "tau_top": flow.tau_top,
+        "top_wall_slip": solver.top_wall_slip(flow),
         "planar_solve_seconds": planar_seconds, "planar": planar, "coupling": "frozen",
         # where the stress ratio around the rod exceeds mu_s the frozen fluidity is not
         # self-consistent (the coupled solve fluidises there): reported, not hidden

@@ -22,6 +22,10 @@ D_zz at the cell centres, D_xz at the corners) with the 1D model's wall conditio
 and on the rod: they host no plastic events, so D is the free-space response of the material's,
 l dD/dn = -D with n the material's outward normal (docs/models.md 4.3). Inside the rod B = D.
 
+The walls' Navier slip (``PlanarShear.slip_length``) is in the operators of ``mac.py``: the wall
+corners' du/dz (``ops.dzu``, ``ops.lift_top``) carries it into D_xz there, into B and into the
+Jacobian alike; the walls' condition on D above is unchanged by it.
+
 Pressure convention (``framework.py``): the momentum balance is solved for the Stokes pressure
 pi (= sigma_zz in planar flow, P_wall on the top wall), and the laws see p = pi / r,
 r = ``normal_stress_ratio``, floored at P_FLOOR of the top p (a bed carries no tension).

@@ -299,7 +299,7 @@ class YieldRodSolver(RodSolver):
                 return self._initial(planar, disc), stages
             nx, nz, hx, hz = warm["grid"]
             warm = regrid_state(warm, MacGrid(int(nx), int(nz), float(hx), float(hz)), self.grid,
-                                self.geometry.wall_speed)
+                                self.geometry.wall_speed, self.ops.slip_length)
             first = max(len(stages) - REGRID_STAGES, 0)
         elif usable:
             first = max(len(stages) - 2, 0)  # two stages: the limit is read from their U
@@ -375,6 +375,7 @@ class YieldRodSolver(RodSolver):
                      "step_over_tol": step / STEP_TOL}
         attrs = {"tau_top": flow.tau_top, "p_min": p_min, "mu_max": float(flow.mu[self.material].max()),
                  "nx": self.grid.nx, "nz": self.grid.nz, "regularisation": stages[-1],
+                 "top_wall_slip": self.top_wall_slip(flow),
                  "rod_force": float(-ev["rod_force"]) if disc.has_rod else float("nan"),
                  # the rate-independent models have no linear response to report
                  "drift_speed": float("nan"), "mobility": float("nan"),
