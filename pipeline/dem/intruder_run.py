@@ -40,6 +40,7 @@ import pandas as pd
 
 from pipeline.common import atomic
 from pipeline.dem import liggghts_render as render
+from pipeline.dem.contact_law import tangential_damping
 from pipeline.dem import precision
 from pipeline.common.config import intruder_push, intruder_run, is_sheared_bed_case, mean_grain_volume
 from pipeline.dem.liggghts_log import DEMRunError
@@ -378,7 +379,7 @@ class YieldProbe(IntruderRun):
 
     def run(self) -> dict[str, Any]:
         self.run_dir.mkdir(parents=True, exist_ok=True)
-        render.copy_templates(self.case["geometry"], self.run_dir)
+        render.copy_templates(self.case["geometry"], self.run_dir, tangential_damping(self.mat))
         self._load_state()
         if "fill" not in self.state:
             self._fill()

@@ -14,6 +14,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 
 from pipeline.common.config import size_classes
+from pipeline.dem import contact_law
 
 TEMPLATE_ROOT = Path(__file__).resolve().parents[2] / "liggghts_inputs"
 #: Templates every geometry's stages include: the settings, the materials, the top wall's motion and
@@ -41,11 +42,18 @@ def template_files(geometry: str) -> list[Path]:
     return [TEMPLATE_ROOT / name for name in SHARED_TEMPLATES] + sorted(folder.glob("*.in"))
 
 
-def copy_templates(geometry: str, run_dir: Path) -> None:
-    """Copy the geometry's templates into ``run_dir`` (stage inputs include them by name)."""
+def copy_templates(geometry: str, run_dir: Path, tangential_damping: bool = True) -> None:
+    """Copy the geometry's templates into ``run_dir`` (stage inputs include them by name).
+
+    ``tangential_damping`` (``material.tangential_damping``, :mod:`pipeline.dem.contact_law`): with
+    it (the default) the copies are the templates byte for byte; without, their contact-model lines
+    get LIGGGHTS' ``tangential_damping off``.
+    """
     run_dir.mkdir(parents=True, exist_ok=True)
-    for path in template_files(geometry):
+    paths = template_files(geometry)
+    for path in paths:
         shutil.copyfile(path, run_dir / path.name)
+    contact_law.apply("liggghts", run_dir, [path.name for path in paths], tangential_damping)
 
 
 def _strip_comments(text: str) -> str:

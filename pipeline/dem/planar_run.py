@@ -85,7 +85,7 @@ class PlanarShearRun(ChunkedRun):
         self.run_dir = run_dir
         self.label = f"DEM run {case_name}/{run_id}"
         self.design = contact_design(config)
-        self.engine = make_engine(self.dem)
+        self.engine = make_engine(self.dem, self.mat)
         self.engine.check_geometry(self.case["geometry"], self.label)
         # The LIGGGHTS launch (None under LAMMPS), for the intruder's extra LIGGGHTS stages.
         self.launcher = getattr(self.engine, "launcher", None)

@@ -31,6 +31,7 @@ from pipeline.common.config import fill_owner_run, fill_physics, is_sheared_bed_
 from pipeline.common.formats import RUN_FORMAT_VERSION
 from pipeline.common.provenance import provenance
 from pipeline.dem import liggghts_render as render
+from pipeline.dem.contact_law import tangential_damping
 from pipeline.dem.intruder_run import IntruderRun
 from pipeline.dem.planar_run import PlanarShearRun
 from pipeline.dem.sheared_bed import ShearedBed
@@ -50,7 +51,7 @@ def run_shared_fill(config: dict[str, Any], case_name: str, fill: str, run_dir: 
     physics = fill_physics(config, case_name, fill)
     runner.seed = physics["seed"]
     run_dir.mkdir(parents=True, exist_ok=True)
-    render.copy_templates(case["geometry"], run_dir)
+    render.copy_templates(case["geometry"], run_dir, tangential_damping(config["material"]))
     runner.state = {"fingerprint": physics, "chunks": [], "steady": None, "wall_seconds": 0.0}
     runner._fill()
     made = runner.state["fill"]

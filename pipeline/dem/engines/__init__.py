@@ -41,7 +41,8 @@ class Engine(Protocol):
         """Raise :class:`pipeline.dem.liggghts_log.DEMRunError` if the engine has no templates for ``geometry``."""
 
     def copy_templates(self, geometry: str, run_dir: Path) -> None:
-        """Copy the geometry's stage templates into ``run_dir``."""
+        """Copy the geometry's stage templates into ``run_dir``, with the engine's contact law
+        (``material.tangential_damping``: the templates byte for byte when true)."""
 
     def render_stage(self, run_dir: Path, stage: str, template: str, variables: dict[str, object]) -> Path:
         """Write ``run_dir/in.<stage>``: the variables, then the template."""
@@ -65,13 +66,17 @@ def engine_name(dem: dict[str, Any]) -> str:
     return str(dem.get("engine", DEFAULT_ENGINE))
 
 
-def make_engine(dem: dict[str, Any]) -> Engine:
-    """The adapter of the config's ``dem`` section (its ``engine``, executable and MPI layout)."""
+def make_engine(dem: dict[str, Any], material: dict[str, Any] | None = None) -> Engine:
+    """The adapter of the config's ``dem`` section (its ``engine``, executable and MPI layout), with
+    the contact law of its ``material`` section (``tangential_damping``: :mod:`pipeline.dem.contact_law`;
+    absent, or no material given, the law with tangential damping)."""
+    from pipeline.dem.contact_law import tangential_damping
     name = engine_name(dem)
+    damping = tangential_damping(material)
     if name == "liggghts":
         from pipeline.dem.engines.liggghts import LiggghtsEngine
-        return LiggghtsEngine(dem["liggghts"], dem["mpi_launcher"], dem["mpi_ranks"])
+        return LiggghtsEngine(dem["liggghts"], dem["mpi_launcher"], dem["mpi_ranks"], damping)
     if name == "lammps":
         from pipeline.dem.engines.lammps import LammpsEngine
-        return LammpsEngine(dem["mpi_launcher"], dem["mpi_ranks"])
+        return LammpsEngine(dem["mpi_launcher"], dem["mpi_ranks"], damping)
     raise ValueError(f"dem.engine: {name!r} is not an engine (choose from {', '.join(ENGINE_NAMES)})")

@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from pipeline.common.config import size_classes
+from pipeline.dem import contact_law
 from pipeline.dem import liggghts_render as render
 from pipeline.dem.engines import CONTACT_COLUMNS
 from pipeline.dem.liggghts_log import DEMRunError, check_run
@@ -83,9 +84,12 @@ class LammpsEngine:
     #: placed only 67 of its 100 grains (maxtry 10000), at 0.15 all are placed.
     insertion_solid_fraction = 0.15
 
-    def __init__(self, mpi_launcher: str = "", ranks: int = 1) -> None:
+    def __init__(self, mpi_launcher: str = "", ranks: int = 1, tangential_damping: bool = True) -> None:
         self.mpi_launcher = mpi_launcher
         self.ranks = ranks
+        #: material.tangential_damping (pipeline/dem/contact_law.py): false writes the templates'
+        #: ``tangential mindlin`` with its damping coefficient 0.
+        self.tangential_damping = tangential_damping
 
     def template_files(self, geometry: str) -> list[Path]:
         folder = TEMPLATE_ROOT / geometry
@@ -101,8 +105,10 @@ class LammpsEngine:
 
     def copy_templates(self, geometry: str, run_dir: Path) -> None:
         run_dir.mkdir(parents=True, exist_ok=True)
-        for path in self.template_files(geometry):
+        paths = self.template_files(geometry)
+        for path in paths:
             shutil.copyfile(path, run_dir / path.name)
+        contact_law.apply("lammps", run_dir, [path.name for path in paths], self.tangential_damping)
 
     def render_stage(self, run_dir: Path, stage: str, template: str, variables: dict[str, object]) -> Path:
         return render.render_stage(run_dir, stage, template, variables)

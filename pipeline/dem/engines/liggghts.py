@@ -80,8 +80,10 @@ class LiggghtsEngine:
     #: Solid fraction of the loose insertion region (insert/pack places the grains by itself).
     insertion_solid_fraction = 0.25
 
-    def __init__(self, liggghts: str, mpi_launcher: str = "", ranks: int = 1) -> None:
+    def __init__(self, liggghts: str, mpi_launcher: str = "", ranks: int = 1, tangential_damping: bool = True) -> None:
         self.launcher = Launcher(liggghts, mpi_launcher, ranks)
+        #: material.tangential_damping (pipeline/dem/contact_law.py): the templates' law when true.
+        self.tangential_damping = tangential_damping
 
     def check_geometry(self, geometry: str, label: str) -> None:
         try:
@@ -90,7 +92,7 @@ class LiggghtsEngine:
             raise DEMRunError(f"{label}: {exc}") from None
 
     def copy_templates(self, geometry: str, run_dir: Path) -> None:
-        render.copy_templates(geometry, run_dir)
+        render.copy_templates(geometry, run_dir, self.tangential_damping)
 
     def render_stage(self, run_dir: Path, stage: str, template: str, variables: dict[str, object]) -> Path:
         return render.render_stage(run_dir, stage, template, variables)
