@@ -25,7 +25,7 @@ REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
 import continuum  # noqa: E402
-from pipeline.calibration.parameter_sets import model_parameters, normal_stress_ratio  # noqa: E402
+from pipeline.calibration.parameter_sets import model_parameters, normal_stress_ratio, slip_length  # noqa: E402
 from pipeline.common.planar_cell import planar_cell  # noqa: E402
 
 DEPTHS_OVER_D = (5.0, 7.0, 9.0)
@@ -52,7 +52,7 @@ def main(argv: list[str] | None = None) -> int:
             continue
         for planes in ("grain_centres", "contact"):
             for ratio in (1.0, r):
-                geometry, z0 = planar_cell(fields, ratio, planes)
+                geometry, z0 = planar_cell(fields, ratio, planes, slip_length=slip_length(params))
                 sol = continuum.solve(MODEL, geometry, model_parameters(params, MODEL), n_grid=400)
                 # The scores compare at the DEM's heights: depth below the top wall grains' centres.
                 z_top = float(np.mean([float(ds.attrs["z_top_wall"]) for ds in fields]))

@@ -80,5 +80,6 @@ def solve(geometry: PlanarShear, params: CriticalStateParameters, n_grid: int = 
         # A band of zero width has no finite shear rate: the Navier slip is not defined on it, and
         # a band on the top wall is itself the slip (geometry.slip_length changes nothing).
         extra_attrs={"tau": state.tau, "shear_band_height": band_height,
-                     "velocity_determined": int(state.band >= 0), "slip_length": geometry.slip_length},
+                     "velocity_determined": int(state.band >= 0), "slip_length": geometry.slip_length,
+                     "top_wall_slip": (geometry.wall_speed - float(fields["u_x"][-1])) if "u_x" in fields else float("nan")},
     )

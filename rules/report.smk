@@ -19,6 +19,7 @@ rule report:
         verdict=f"{ROOT}/validation/verdict.csv",
         differences=f"{ROOT}/validation/model_differences.csv",
         scene_needs=f"{ROOT}/validation/scene_needs.csv",
+        wall=f"{ROOT}/validation/wall.csv",
         decay_length=f"{ROOT}/validation/decay_length.csv",
         error_check=f"{ROOT}/validation/error_check.csv",
         creep_resolution=f"{ROOT}/validation/creep_resolution.csv",

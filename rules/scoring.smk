@@ -22,6 +22,7 @@ rule scores:
         differences=f"{ROOT}/validation/model_differences.csv",
         scene_needs=f"{ROOT}/validation/scene_needs.csv",
         force_sweep=f"{ROOT}/validation/force_sweep.csv",
+        wall=f"{ROOT}/validation/wall.csv",
     log:
         f"{ROOT}/logs/scores.log",
     benchmark:
@@ -31,7 +32,8 @@ rule scores:
         "--model-draws {input.model_draws} {input.intruder_model_draws} "
         "--intruder-runs {input.intruder_runs} --intruder-models {input.intruder_models} --params {input.params} "
         "--out {output.scores} --verdict-out {output.verdict} --differences-out {output.differences} "
-        "--scene-needs-out {output.scene_needs} --force-sweep-out {output.force_sweep} > {log} 2>&1"
+        "--scene-needs-out {output.scene_needs} --force-sweep-out {output.force_sweep} --wall-out {output.wall} "
+        "> {log} 2>&1"
 
 
 rule cost_accuracy:

@@ -24,6 +24,7 @@ import numpy as np
 
 from continuum import calibration as fits
 from pipeline.calibration.nonlocal_fit import calibrate_nonlocal
+from pipeline.calibration.wall_slip import calibrate_wall
 from pipeline.calibration.parameter_sets import CalibrationError, calibration_settings
 from pipeline.common.config import calibration_runs, load_config, validation_cases
 from pipeline.common.formats import open_fields
@@ -169,6 +170,8 @@ def calibrate(config: dict[str, Any], rheometer_files: list[Path], nonlocal_file
         "calibration_runs": [f"{case}/{run}" for case, run in read],
         "nonlocal": {},
     }
+    # Before the non-local fit: its cells have the models' walls.
+    params["wall"] = calibrate_wall(settings["wall_slip"], rheometer_files, states, nonlocal_files)
     if nonlocal_files:
         params["normal_stresses"]["models_sigma_zz_over_p"] = planar_bed_ratio(nonlocal_files, states)
     else:
@@ -315,6 +318,13 @@ def main(argv: list[str] | None = None) -> int:
     local = params["local"]
     print("mu_s = {:.4f} +- {:.4f}, mu_2 = {:.4f} +- {:.4f}, I_0 = {:.4f} +- {:.4f}, nu_c = {:.4f} +- {:.4f}, a = {:.3f} +- {:.3f}".format(
         *(x for n in ("mu_s", "mu_2", "I_0", "nu_c", "a") for x in (local[n]["value"], local[n]["error"]))))
+    wall, d = params["wall"], float(params["d"])
+    rheo, case = wall["rheometer"], wall["calibration_case"]
+    print(f"wall slip length b = {wall['slip_length']['value_over_d']:.3f} d (from {wall['slip_length']['fitted_on']}); "
+          f"rheometer {rheo['value'] / d:.3f} +- {rheo['error'] / d:.3f} d "
+          f"(chi2/dof {rheo['chi2_reduced']:.2f}, slope per decade of I {rheo['inertial_trend']['z']:.1f} errors); "
+          f"calibration case {case.get('value', float('nan')) / d:.3f} +- "
+          f"{case.get('error', float('nan')) / d:.3f} d")
     for model, entry in params["nonlocal"].items():
         for name, e in entry.items():
             per = ", ".join(f"{run} {v:.4g}" for run, v in e["per_replica"].items())

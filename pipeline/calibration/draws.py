@@ -9,7 +9,8 @@ correlations are carried into the predictions:
    calibration set it when the DEM resolves no pressure dependence, nu_ref follows nu_c), sin_phi
    = the drawn mu_s (the calibration's own definition), and the models' sigma_zz / p from its error; draws
    outside the laws' domain (I_0 <= 0, mu_2 <= mu_s, kappa <= 0, nu_c outside (0, 1)) are drawn
-   again and counted;
+   again and counted; the walls' slip length from its calibration error (normal, held >= 0, from
+   a stream of its own);
 2. each non-local parameter refitted on the calibration case's replica mean with the drawn local
    laws (:func:`pipeline.calibration.nonlocal_fit.fit_length`): the length the creep asks for
    moves with mu_s, which a draw of the length alone would miss;
@@ -112,6 +113,10 @@ def draw_ensemble(params: dict[str, Any], nonlocal_paths: list[Path], settings: 
                   seed: int) -> dict[str, Any]:
     """The ``draws.json`` content: ``n_draws`` parameter sets (module docstring)."""
     rng = np.random.default_rng(seed)
+    # The wall's slip length from a stream of its own: the other values of every draw are those
+    # drawn before the wall had one (issue 54), so the wall's share of u_input is its own.
+    wall_rng = np.random.default_rng([seed, 54])
+    wall = params["wall"]["slip_length"]
     sets = [open_fields(p) for p in nonlocal_paths]
     draws, rejected_total = [], 0
     failures: dict[str, int] = {}
@@ -119,13 +124,14 @@ def draw_ensemble(params: dict[str, Any], nonlocal_paths: list[Path], settings: 
         for k in range(n_draws):
             values, ratio, rejected = draw_local(params, rng)
             rejected_total += rejected
+            slip = max(0.0, float(wall_rng.normal(wall["value"], wall["error"]))) if wall["error"] > 0 else wall["value"]
             # Independent of the refit's outcome: the realisation factors are drawn first.
             factors = {m: math.exp(float(rng.normal(0.0, relative_draw_error(params["nonlocal"][m][name]))))
                        for m, name in NONLOCAL_PARAMETER.items() if m in params.get("nonlocal", {})}
-            draw: dict[str, Any] = {"draw": k, "values": values, "sigma_zz_over_p": ratio, "nonlocal": {},
-                                    "refit": {}, "failed": {}}
+            draw: dict[str, Any] = {"draw": k, "values": values, "sigma_zz_over_p": ratio, "slip_length": slip,
+                                    "nonlocal": {}, "refit": {}, "failed": {}}
             if sets and factors:
-                data = mean_creep(sets, settings, ratio)
+                data = mean_creep(sets, settings, ratio, slip)
                 for model, factor in factors.items():
                     name = NONLOCAL_PARAMETER[model]
                     try:

@@ -41,6 +41,7 @@ from pipeline.calibration.parameter_sets import (
     cosserat_parameters,
     ngf_parameters,
     normal_stress_ratio,
+    slip_length,
     volume_averaged_parameters,
 )
 from pipeline.common.formats import open_fields
@@ -83,15 +84,15 @@ def _label(ds: xr.Dataset, path: str = "?") -> tuple[str, str]:
     return str(ds.attrs.get("case", "?")), str(ds.attrs.get("run", path))
 
 
-def mean_creep(sets: Sequence[xr.Dataset], settings: dict[str, Any], ratio: float) -> CreepData:
+def mean_creep(sets: Sequence[xr.Dataset], settings: dict[str, Any], ratio: float, slip: float) -> CreepData:
     """The replicas' mean creep profile on their mean cell (:func:`planar_cell`, contact planes).
 
     Each replica's creep speed (:func:`creep_speed`) is placed by its depth below its own top
     contact plane and interpolated onto the first replica's depths; the mean sits at height
-    ``H - depth`` of the mean cell of depth H. Kept: points inside the walls, above
+    ``H - depth`` of the mean cell of depth H, its walls slipping with length ``slip`` (m). Kept: points inside the walls, above
     ``min_speed_over_wall_speed`` V and above twice their error.
     """
-    geometry, _ = planar_cell(list(sets), ratio)
+    geometry, _ = planar_cell(list(sets), ratio, slip_length=slip)
     tops = [float(ds.attrs["z_top_contact_plane"]) for ds in sets]
     depth = tops[0] - sets[0].z.values
     profiles = []
@@ -266,11 +267,12 @@ def fit_replicas(params: dict[str, Any], sets: Sequence[xr.Dataset], settings: d
     ratio = normal_stress_ratio(params)
     base = {name: entry["value"] for name, entry in (params["local"] | params["critical_state"]).items()}
     runs = [_label(ds)[1] for ds in sets]
-    full = mean_creep(sets, settings, ratio)
-    single = {run: mean_creep([ds], settings, ratio) for run, ds in zip(runs, sets)}
-    left_out = ({run: mean_creep([o for o in sets if o is not ds], settings, ratio) for run, ds in zip(runs, sets)}
+    slip = slip_length(params)
+    full = mean_creep(sets, settings, ratio, slip)
+    single = {run: mean_creep([ds], settings, ratio, slip) for run, ds in zip(runs, sets)}
+    left_out = ({run: mean_creep([o for o in sets if o is not ds], settings, ratio, slip) for run, ds in zip(runs, sets)}
                 if len(sets) >= 2 else {})
-    halves = ({half: mean_creep([creep_half(ds, half) for ds in sets], settings, ratio) for half in HALVES}
+    halves = ({half: mean_creep([creep_half(ds, half) for ds in sets], settings, ratio, slip) for half in HALVES}
               if all(has_halves(ds) for ds in sets) else {})
     out: dict[str, Any] = {}
     residuals: dict[str, dict[str, float]] = {}

@@ -34,6 +34,8 @@ CALIBRATION_DEFAULTS: dict[str, Any] = {
     "critical_state_n": 1.05,
     "cosserat_beta": 1.0,
     "cosserat_wall_spin_ratio": 0.5,
+    # The models' walls slip as the DEM's rheometer walls do (issue 54, pipeline/calibration/wall_slip.py).
+    "wall_slip": "rheometer",
 }
 
 
@@ -107,6 +109,16 @@ def normal_stress_ratio(params: dict[str, Any]) -> float:
                                "calibration, rerun it") from None
 
 
+def slip_length(params: dict[str, Any]) -> float:
+    """The models' wall slip length b (m; ``continuum.geometry.PlanarShear.slip_length``) of a
+    ``params.json`` (its ``wall`` entry, pipeline/calibration/wall_slip.py)."""
+    try:
+        return float(params["wall"]["slip_length"]["value"])
+    except KeyError:
+        raise CalibrationError("params.json has no wall.slip_length: written by a calibration from before "
+                               "issue 54 (the wall's slip), rerun it") from None
+
+
 def params_of_draw(params: dict[str, Any], draw: dict[str, Any]) -> dict[str, Any]:
     """A ``params.json``-shaped dict holding one draw's values (for ``model_parameters`` and the
     solvers); every entry the draw does not set is the calibration's own."""
@@ -117,6 +129,8 @@ def params_of_draw(params: dict[str, Any], draw: dict[str, Any]) -> dict[str, An
             out[section][name]["value"] = float(draw["values"][name])
     key = "models_sigma_zz_over_p" if "models_sigma_zz_over_p" in out["normal_stresses"] else "sigma_zz_over_p"
     out["normal_stresses"][key]["value"] = float(draw["sigma_zz_over_p"])
+    if "slip_length" in draw:
+        out["wall"]["slip_length"]["value"] = float(draw["slip_length"])
     out["nonlocal"] = {model: {name: {"value": v} for name, v in entry.items()}
                        for model, entry in draw["nonlocal"].items() if entry is not None}
     return out

@@ -30,7 +30,7 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from pipeline.coarse_graining import field_checks, structure
+from pipeline.coarse_graining import field_checks, structure, wall
 from pipeline.coarse_graining.coarse_grain import (CoarseGrainError, Result, block_average, coarse_grain, plane_grid, profile_grid,
                                                    write_netcdf)
 from pipeline.coarse_graining.pairing import check_contacts_match, contact_index
@@ -179,7 +179,10 @@ def run_fields(config: dict[str, Any], run_dir: Path, plane: bool = False,
         ds.attrs.update(bulk_means(result, ds, walls, opts, d, float(run["density"])))
         add_structural_error(ds, particles, chosen, kernel, d, opts["bulk_margin_over_d"] * d)
     if not plane and x_shift is None:
-        ds.attrs.update(wall_friction(production_series(run_dir, run)))
+        series = production_series(run_dir, run)
+        ds.attrs.update(wall_friction(series))
+        if "u_x_disp" in ds:
+            ds.attrs.update(wall.wall_attrs(ds, series, run))
     found: dict[str, Any] = {}
     if checks and not plane:
         found = physical_checks(ds, run, run_dir, particles, contacts, chosen, kernel, walls, opts, result.sums)

@@ -10,12 +10,13 @@ from pipeline.common.config import dem_fills, dem_runs, size_study_cell, validat
 
 
 #: Figures the report writes as PNG files (flagged with Snakemake's report()).
-REPORT_FIGURES = ("decay_length", "profiles", "calibration", "pareto", "well_posedness", "mesh_convergence", "wall_series")
+REPORT_FIGURES = ("decay_length", "profiles", "calibration", "wall_slip", "pareto", "well_posedness", "mesh_convergence",
+                  "wall_series")
 #: Category of each figure in Snakemake's report: the stage that made what it shows.
 REPORT_CATEGORIES = {"decay_length": "Validation", "profiles": "Scoring", "pareto": "Scoring", "calibration": "Calibration",
                      "well_posedness": "Stability", "mesh_convergence": "Stability", "wall_series": "DEM",
                      "dem_convergence": "DEM", "intruder": "Intruder", "intruder_field": "Intruder", "intruder_force": "Intruder", "verdict": "Validation",
-                     "creep_halves": "DEM"}
+                     "creep_halves": "DEM", "wall_slip": "Calibration"}
 
 
 def root(config: dict[str, Any]) -> Path:

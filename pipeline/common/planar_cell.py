@@ -15,7 +15,10 @@ Wall planes (``planes``):
   choice changes.
 
 ``normal_stress_ratio`` is sigma_zz / p measured on the rheometer (``params.json``
-``normal_stresses.sigma_zz_over_p``): the models' p is sigma_zz over it.
+``normal_stresses.sigma_zz_over_p``): the models' p is sigma_zz over it. ``slip_length`` is the
+walls' Navier slip length b (m, ``params.json`` ``wall.slip_length``,
+pipeline/calibration/wall_slip.py): the rough DEM wall's grains lag it at the contact plane, and
+the models' walls slip as they do (issue 54). Every caller states it: 0 is a choice, not a default.
 """
 from __future__ import annotations
 
@@ -46,8 +49,8 @@ def wall_planes(ds: xr.Dataset, planes: str) -> tuple[float, float]:
     return float(ds.attrs[lo]), float(ds.attrs[hi])
 
 
-def planar_cell(fields: Sequence[xr.Dataset], normal_stress_ratio: float, planes: str = "contact"
-                ) -> tuple[PlanarShear, float]:
+def planar_cell(fields: Sequence[xr.Dataset], normal_stress_ratio: float, planes: str = "contact", *,
+                slip_length: float) -> tuple[PlanarShear, float]:
     """Mean planar cell of the replicas' fields and the height (m, DEM frame) of its bottom plane."""
     def mean(key: str) -> float:
         return float(np.mean([float(ds.attrs[key]) for ds in fields]))
@@ -56,5 +59,5 @@ def planar_cell(fields: Sequence[xr.Dataset], normal_stress_ratio: float, planes
     z0, z1 = float(bounds[:, 0].mean()), float(bounds[:, 1].mean())
     geometry = PlanarShear(depth=z1 - z0, wall_speed=mean("wall_speed"), wall_pressure=mean("wall_pressure"),
                            gravity=mean("gravity"), d=mean("d"), rho_s=mean("rho_s"),
-                           normal_stress_ratio=float(normal_stress_ratio))
+                           normal_stress_ratio=float(normal_stress_ratio), slip_length=float(slip_length))
     return geometry, z0

@@ -42,7 +42,7 @@ from continuum.geometry import PlanarShear
 from continuum.intruder.yield2d import YieldRodSolver
 from pipeline.common.formats import open_fields
 from pipeline.common import atomic
-from pipeline.calibration.parameter_sets import model_parameters, normal_stress_ratio, params_of_draw
+from pipeline.calibration.parameter_sets import model_parameters, normal_stress_ratio, params_of_draw, slip_length
 from pipeline.common.planar_cell import planar_cell
 from pipeline.common.config import load_config
 from pipeline.common.provenance import provenance_attrs
@@ -110,7 +110,7 @@ class Scene:
 
 def scene_of(run: dict[str, Any], ds: xr.Dataset, params: dict[str, Any]) -> Scene:
     rod = run["intruder"]
-    geometry, z0 = planar_cell([ds], normal_stress_ratio(params))
+    geometry, z0 = planar_cell([ds], normal_stress_ratio(params), slip_length=slip_length(params))
     # run.json gives the rod's depth below the top wall's grain centres; the cell's top is its contact plane.
     rod_z = float(ds.attrs["z_top_wall"]) - rod["depth"]
     intruder = RodIntruder.below_top(geometry, rod["diameter"], z0 + geometry.depth - rod_z, rod["force"] / rod["length"])

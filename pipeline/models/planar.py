@@ -28,13 +28,19 @@ import xarray as xr
 import continuum
 from continuum.geometry import PlanarShear
 from pipeline.common import atomic
-from pipeline.calibration.parameter_sets import model_parameters, normal_stress_ratio, params_of_draw
+from pipeline.calibration.parameter_sets import model_parameters, normal_stress_ratio, params_of_draw, slip_length
 from pipeline.common.config import load_config
 from pipeline.common.formats import FormatError, open_fields
 from pipeline.common.planar_cell import planar_cell
 from pipeline.common.provenance import provenance_attrs
 
 MODELS_DEFAULTS: dict[str, Any] = {"n_grid": 400}
+
+#: The wall's scalars of a solution (its attribute names) that the draws files carry per draw.
+WALL_SCALARS = {"wall_shear_stress": "tau", "top_wall_slip": "top_wall_slip"}
+WALL_UNITS = {"wall_shear_stress": "Pa", "top_wall_slip": "m s-1"}
+WALL_NAMES = {"wall_shear_stress": "the top wall's shear stress (the model's uniform sigma_xz)",
+              "top_wall_slip": "the top wall's speed less the grains' at its plane (Navier slip)"}
 
 
 class ModelRunError(RuntimeError):
@@ -44,7 +50,7 @@ class ModelRunError(RuntimeError):
 def case_geometry(fields: list[xr.Dataset], params: dict[str, Any]) -> tuple[PlanarShear, float]:
     """Mean model cell of the replicas (contact planes, the calibration's sigma_zz / p) and the
     height of its bottom plane (m): :func:`pipeline.common.planar_cell.planar_cell`."""
-    return planar_cell(fields, normal_stress_ratio(params))
+    return planar_cell(fields, normal_stress_ratio(params), slip_length=slip_length(params))
 
 
 def calibrated_range(solution: xr.Dataset, geometry: PlanarShear, params: dict[str, Any]) -> dict[str, Any]:
@@ -101,6 +107,7 @@ def solve_draws(model: str, case: str, params: dict[str, Any], ensemble: dict[st
     except ModelRunError as exc:
         # The grid's share of the uncertainty is then unknown: said in the file, not replaced.
         refined, refined_failure = nominal.copy(deep=True), str(exc)[:300]
+        refined.attrs.update({attr: np.nan for attr in WALL_SCALARS.values()})
         for name, var in refined.data_vars.items():
             if np.issubdtype(var.dtype, np.floating):
                 refined[name] = var * np.nan
@@ -109,6 +116,7 @@ def solve_draws(model: str, case: str, params: dict[str, Any], ensemble: dict[st
     data = {n: np.full((len(draws), nominal.sizes["z"]), np.nan) for n in names}
     solved = np.zeros(len(draws), dtype=np.int8)
     seconds = np.full(len(draws), np.nan)
+    walls = {n: np.full(len(draws), np.nan) for n in WALL_SCALARS}
     failures: dict[int, str] = {}
     for k, draw in enumerate(draws):
         if model in draw.get("failed", {}):
@@ -126,12 +134,18 @@ def solve_draws(model: str, case: str, params: dict[str, Any], ensemble: dict[st
                 data[n][k] = sol[n].values
         solved[k] = 1
         seconds[k] = float(sol.attrs["solve_seconds"])
+        for n, attr in WALL_SCALARS.items():
+            walls[n][k] = float(sol.attrs.get(attr, np.nan))
     out = xr.Dataset(coords={"draw": ("draw", np.arange(len(draws)), {"units": "1", "long_name": "parameter draw"}),
                              "z": nominal.z})
     for n in names:
         out[n] = (("draw", "z"), data[n], dict(refined[n].attrs))
         out[f"{n}_refined"] = ("z", refined[n].values, dict(nominal[n].attrs) | {
             "long_name": f"{nominal[n].attrs.get('long_name', n)}, calibration's values on the refined grid"})
+    for n, attr in WALL_SCALARS.items():
+        out[n] = ("draw", walls[n], {"units": WALL_UNITS[n], "long_name": WALL_NAMES[n]})
+        out[f"{n}_refined"] = ((), float(refined.attrs.get(attr, np.nan)),
+                               {"units": WALL_UNITS[n], "long_name": f"{WALL_NAMES[n]}, refined grid"})
     out["solved"] = ("draw", solved, {"units": "1", "long_name": "1 where the draw was solved"})
     out["solve_seconds"] = ("draw", seconds, {"units": "s", "long_name": "solve time of the draw"})
     out.attrs.update({"model": model, "case": case, "n_grid": n_grid, "n_grid_refined": 2 * n_grid - 1,

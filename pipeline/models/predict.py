@@ -28,7 +28,7 @@ import pandas as pd
 
 import continuum
 from continuum.geometry import PlanarShear
-from pipeline.calibration.parameter_sets import model_parameters, normal_stress_ratio
+from pipeline.calibration.parameter_sets import model_parameters, normal_stress_ratio, slip_length
 from pipeline.common import atomic
 from pipeline.common.cli import positive_float
 from pipeline.common.config import RHEOMETER, load_config, mean_grain_volume
@@ -50,7 +50,7 @@ def nominal_cell(config: dict[str, Any], case: str, params: dict[str, Any]) -> P
     depth = DEPTH_CORRECTION * body * mean_grain_volume(d, mat["polydispersity"], mat["n_sizes"]) / (nu_c * area)
     return PlanarShear(depth=depth, wall_speed=float(spec["wall_speed"]), wall_pressure=float(spec["wall_pressure"]),
                        gravity=float(spec["gravity"]), d=d, rho_s=float(mat["rho_s"]),
-                       normal_stress_ratio=normal_stress_ratio(params))
+                       normal_stress_ratio=normal_stress_ratio(params), slip_length=slip_length(params))
 
 
 def predict_case(geometry: PlanarShear, params: dict[str, Any], depths_over_d: list[float],

@@ -33,6 +33,7 @@ from pipeline.report.halves_section import creep_halves_section
 from pipeline.report.intruder_section import intruder_section
 from pipeline.report.scores_section import score_section
 from pipeline.report.style import MODEL_STYLE
+from pipeline.report.wall_section import wall_section
 from pipeline.scoring.replicas import align_replicas
 
 #: Figures embedded as PNG (colour maps); every other one is line art, embedded as SVG.
@@ -405,6 +406,7 @@ def build_report(config: dict[str, Any], figure_dir: Path | None = None) -> str:
         profiles_section(root, config, figures),
         intruder_section(root, config, figures) if intruder_cases(config) else "",
         calibration_section(root, figures),
+        wall_section(root, figures),
         pareto_section(root, figures),
         dem_convergence_section(root, config, figures) if convergence_cases(config) else "",
         stability_section(root, figures),

@@ -34,6 +34,7 @@ from pipeline.scoring.intruder_scores import score_intruder
 from pipeline.scoring.metrics import MetricError, Profile
 from pipeline.scoring.replicas import (WALL_MARGIN_OVER_D, align_replicas, interior, mean_profile,  # noqa: F401 (re-exported)
                                        replica_profiles, with_microscopic_fluidity)
+from pipeline.scoring.wall_scores import score_wall, wall_table
 from pipeline.scoring.uncertainty import (LOG_RESAMPLED, DemNoise, OffsetNoise, ScoreSamples, dem_noise_model, offset_noise,
                                           offset_profiles, resample_profile)
 
@@ -212,6 +213,10 @@ def score_case(case: str, field_files: list[Path], model_files: dict[str, Path],
         sol.close()
         if ens is not None:
             ens.close()
+    wall_rows, wall_samples = score_wall(case, field_files, model_files, draw_files or {}, settings.dem_resamples,
+                                         settings.seed)
+    rows.extend(wall_rows)
+    samples |= wall_samples
     return pd.DataFrame(rows, columns=COLUMNS), samples
 
 
@@ -248,6 +253,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--differences-out", type=Path, help="validation/model_differences.csv: every pair of models")
     parser.add_argument("--scene-needs-out", type=Path, help="validation/scene_needs.csv")
     parser.add_argument("--force-sweep-out", type=Path, help="validation/force_sweep.csv: the rod's speed against its push")
+    parser.add_argument("--wall-out", type=Path, help="validation/wall.csv: the planar cases' top wall, DEM and models")
     args = parser.parse_args(argv)
     config = load_config(args.config) if args.config else {}
     settings = ScoringSettings.from_config(config)
@@ -270,6 +276,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.force_sweep_out is not None and not args.force_sweep_out.exists():
         atomic.write_csv(pd.DataFrame(columns=["push_over_yield", "source", "speed", "note"]), args.force_sweep_out)
     params = json.loads(args.params.read_text())
+    calibrated = calibration_cases(params)
+    walls = []
     for case in sorted({p.parent.name for p in args.models}):
         field_files = sorted(p for p in args.fields if p.parent.name == case)
         model_files = {p.stem: p for p in args.models if p.parent.name == case}
@@ -277,8 +285,10 @@ def main(argv: list[str] | None = None) -> int:
         frame, extra = score_case(case, field_files, model_files, params, ens, settings)
         frames.append(frame)
         samples |= extra
+        walls.append(wall_table(case, ROLES[0] if case in calibrated else ROLES[1], field_files, model_files))
+    if args.wall_out is not None:
+        atomic.write_csv(pd.concat(walls, ignore_index=True) if walls else pd.DataFrame(columns=["case"]), args.wall_out)
     scores = pd.concat(frames, ignore_index=True)
-    calibrated = calibration_cases(params)
     scores["role"] = np.where(scores["case"].isin(calibrated), ROLES[0], ROLES[1])
     if args.verdict_out is not None:
         outcome = verdict.judge(scores, samples, settings.confidence, solve_costs=verdict.solve_costs(scores))

@@ -115,6 +115,7 @@ def test_cli_writes_the_contract_table(tmp_path: Path, local_params, ngf_params,
         "critical_state": {k: entry(v) for k, v in dict(sin_phi=0.3819, nu_ref=0.59, kappa=0.01, p_ref=300.0, n=1.05).items()},
         "nonlocal": {"ngf": {"A": entry(0.48)}, "volume_averaged": {"l": entry(2 * D)}, "cosserat": {"l": entry(D)}},
         "normal_stresses": {"sigma_zz_over_p": entry(1.0)},
+        "wall": {"slip_length": entry(0.0)},
         "d": D, "rho_s": 2500.0,
     }
     (tmp_path / "params.json").write_text(json.dumps(params))

@@ -20,7 +20,8 @@ LOCAL = {"mu_s": 0.37, "mu_2": 0.9, "I_0": 0.45, "nu_c": 0.59, "a": 0.15}
 CRITICAL = {"sin_phi": 0.37, "nu_ref": 0.59, "kappa": 0.001, "a": 0.15, "p_ref": 300.0, "n": 1.05}
 PARAMS = {"local": {k: {"value": v} for k, v in LOCAL.items()},
           "critical_state": {k: {"value": v} for k, v in CRITICAL.items()},
-          "normal_stresses": {"sigma_zz_over_p": {"value": 1.05}}}
+          "normal_stresses": {"sigma_zz_over_p": {"value": 1.05}},
+          "wall": {"slip_length": {"value": 0.0, "error": 0.0}}}
 A_TRUE = 0.3
 POINT_NOISE = 0.05       # log noise of one profile point (what the block errors state)
 REALISATION = 0.8       # log-slope scatter between replicas (frozen structure the block errors miss)

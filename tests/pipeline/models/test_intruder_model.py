@@ -16,7 +16,8 @@ from pipeline.models.intruder_states import load_states, save_states
 D = 0.002
 MU = {"mu_s": 0.374, "mu_2": 1.023, "I_0": 0.637, "nu_c": 0.587, "a": 0.141}
 PARAMS = {"local": {k: {"value": v} for k, v in MU.items()}, "critical_state": {},
-          "nonlocal": {"ngf": {"A": {"value": 0.327}}}, "normal_stresses": {"sigma_zz_over_p": {"value": 1.058}}}
+          "nonlocal": {"ngf": {"A": {"value": 0.327}}}, "normal_stresses": {"sigma_zz_over_p": {"value": 1.058}},
+          "wall": {"slip_length": {"value": 0.0, "error": 0.0}}}
 
 
 def run(name: str, depth: float, force: float, sweep: bool = False, push: float = 0.5) -> dict:

@@ -25,6 +25,7 @@ def reference_params() -> dict:
         "critical_state": {k: entry(v) for k, v in dict(sin_phi=0.3819, nu_ref=0.59, kappa=0.01, p_ref=300.0, n=1.05).items()},
         "nonlocal": {"ngf": {"A": entry(0.48)}, "cosserat": {"l": entry(2 * D)}, "volume_averaged": {"l": entry(2 * D)}},
         "normal_stresses": {"sigma_zz_over_p": entry(1.0)},
+        "wall": {"slip_length": entry(0.0)},
         "rheometer_states": [{"I": 0.2}],
         "d": D, "rho_s": 2500.0,
     }
