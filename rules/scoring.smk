@@ -36,6 +36,24 @@ rule scores:
         "> {log} 2>&1"
 
 
+rule rod_steadiness:
+    priority: targets.AFTER_DEM_PRIORITY
+    message:
+        "Is each rod steady? Its travel over the production and the production's halves"
+    conda:
+        ENV
+    input:
+        intruder_runs=layout.all_intruder_run_jsons(config),
+    output:
+        f"{ROOT}/validation/rod_steadiness.csv",
+    log:
+        f"{ROOT}/logs/rod_steadiness.log",
+    benchmark:
+        f"{ROOT}/benchmarks/rod_steadiness.tsv"
+    shell:
+        "python -m pipeline.scoring rod-steadiness --intruder-runs {input.intruder_runs} --out {output} > {log} 2>&1"
+
+
 rule cost_accuracy:
     priority: targets.AFTER_DEM_PRIORITY
     message:

@@ -46,6 +46,7 @@ from pipeline.common.config import intruder_push, intruder_run, is_sheared_bed_c
 from pipeline.dem.liggghts_log import DEMRunError
 from pipeline.dem.planar_run import PlanarShearRun
 from pipeline.dem import sheared_bed
+from pipeline.scoring.rod_steadiness import classify, split_durations
 # The rod's speed statistics (re-exported: runs, benchmarks and tests import them from here).
 from pipeline.dem.rod_speed import (SPEED_BLOCKS, CreepSpeed, creep_speed, is_arrested, production_halves,  # noqa: F401
                                     rod_speed_settled)
@@ -352,6 +353,16 @@ class IntruderRun(PlanarShearRun):
             # None, or the sheared bed the rod went into: its grains removed, the settling allowed for.
             "inserted": inserted,
         }
+        halves = record["intruder"]["halves"]
+        if halves is not None:
+            # The halves' own durations (s), so that each half's travel is exact (issue 55).
+            halves["first_duration"], halves["second_duration"] = split_durations(series["time"].to_numpy())
+        # The rod's travel over the production and each half, in d, and whether its U is steady:
+        # the functions the scoring applies to older records too (pipeline.scoring.rod_steadiness).
+        steadiness = classify(record)
+        record["intruder"].update({k: steadiness[k] for k in ("travel_over_d", "travel_first_half_over_d",
+                                                              "travel_second_half_over_d", "travel_source")})
+        record["intruder"]["steadiness"] = {k: steadiness[k] for k in ("steady", "rod_class", "reason", "halves_z_normal")}
         return record
 
 

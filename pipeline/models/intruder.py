@@ -46,6 +46,7 @@ from pipeline.calibration.parameter_sets import model_parameters, normal_stress_
 from pipeline.common.planar_cell import planar_cell
 from pipeline.common.config import load_config
 from pipeline.common.provenance import provenance_attrs
+from pipeline.models.intruder_drift import add_drifts, linear_drifts, solve_drifts
 from pipeline.models.intruder_states import save_states
 
 
@@ -227,6 +228,9 @@ def predict(model: str, params: dict[str, Any], runs: list[dict[str, Any]], fiel
         if pushes:
             out[f"sweep_speed_{suffix}"] = ("push_over_yield", np.asarray(ap, dtype=float),
                                             {"units": "m s-1", "long_name": f"force sweep: rod speed of the {label} approximation"})
+    # The drift apart from the push (issue 55, item 3): the model's own F = 0 solve per depth.
+    drifts, drift_refused = solve_drifts(model, parameters, scenes, cells_per_d, results)
+    out = add_drifts(out, scenes, drifts, linear_drifts(results), drift_refused)
     done = [r for r in results if r is not None]
     out.attrs.update({"model": model, "case": "intruder", "refused": json.dumps(refused),
                       "n_grid": int(max(r.n_grid for r in done)) if done else 0,

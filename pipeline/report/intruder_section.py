@@ -1,6 +1,7 @@
 """The report's intruder section: the rod's speed against depth and against its push, the flow
-around it in its frame (run.json of the intruder runs, models/intruder/*.nc, fields_xz/,
-validation/force_sweep.csv)."""
+around it in its frame, whether each rod is steady and the drift apart from the push (run.json of
+the intruder runs, models/intruder/*.nc, fields_xz/, validation/force_sweep.csv,
+validation/rod_steadiness.csv)."""
 from __future__ import annotations
 
 import json
@@ -15,8 +16,10 @@ import xarray as xr
 
 from pipeline.common.config import dem_runs
 from pipeline.common.layout import intruder_cases, model_names
+from pipeline.models.intruder_drift import drift_table
 from pipeline.report.html import table_html
 from pipeline.report.style import MODEL_STYLE
+from pipeline.scoring.rod_steadiness import HALVES_Z_LIMIT, MIN_TRAVEL_OVER_D, classify
 
 
 def intruder_section(root: Path, config: dict[str, Any], figures: Any) -> str:
@@ -46,8 +49,10 @@ def intruder_section(root: Path, config: dict[str, Any], figures: Any) -> str:
                 ax.plot(rod["depth_over_d"], floor, "kv" if rod["control"] else "ko", mfc="none", label=label + ", arrested")
             else:
                 ax.errorbar(rod["depth_over_d"], rod["speed"], yerr=2 * rod["speed_err"], fmt="ks", label=label)
+            verdict = classify(r)
             rows.append({"run": r["run"], "depth / d": rod["depth_over_d"], "force (N)": rod["force"],
-                         "speed (m/s)": rod["speed"], "error": rod["speed_err"], "arrested": str(rod["arrested"])})
+                         "speed (m/s)": rod["speed"], "error": rod["speed_err"], "arrested": str(rod["arrested"]),
+                         "travel / d": verdict["travel_over_d"], "steady": verdict["rod_class"]})
         refused = []
         for model in model_names(config):
             path = root / "models" / case / f"{model}.nc"
@@ -80,6 +85,8 @@ def intruder_section(root: Path, config: dict[str, Any], figures: Any) -> str:
         parts.append(figures.add("intruder", fig, f"{case}: rod speed against depth, DEM (2 standard errors) and models."))
         parts.append(rod_frame_figure(root, case, runs, figures))
         parts.append(table_html(pd.DataFrame(rows)))
+        parts.append(steadiness_html(root, case))
+        parts.append(drift_html(root, config, case, every))
         if any(r["intruder"].get("force_sweep") for r in every):
             parts.append(force_sweep_figure(root, figures, case))
         if refused:
@@ -113,6 +120,104 @@ def rod_frame_figure(root: Path, case: str, runs: list[dict[str, Any]], figures:
                        "on a symmetric log scale (linear within 1e-4); blank: the rod.")
 
 
+
+
+#: The steadiness table's columns in the report, and their headings.
+STEADINESS_COLUMNS = {"run": "run", "depth_over_d": "depth / d", "push_over_yield": "F / F_y",
+                      "speed": "U (m/s)", "travel_over_d": "travel / d", "travel_first_half_over_d": "1st half / d",
+                      "travel_second_half_over_d": "2nd half / d", "first_half_speed": "U 1st half (m/s)",
+                      "second_half_speed": "U 2nd half (m/s)", "halves_z_normal": "halves' z",
+                      "rod_class": "class", "reason": "reason"}
+
+
+def steadiness_html(root: Path, case: str) -> str:
+    """Each rod's travel over its production, its halves and its class
+    (``validation/rod_steadiness.csv``, :mod:`pipeline.scoring.rod_steadiness`), with the rule; ""
+    where the table is not there."""
+    path = root / "validation" / "rod_steadiness.csv"
+    if not path.exists():
+        return ""
+    table = pd.read_csv(path)
+    table = table[table["case"] == case]
+    if table.empty:
+        return ""
+    shown = table[list(STEADINESS_COLUMNS)].rename(columns=STEADINESS_COLUMNS)
+    shown = shown.astype(object).where(pd.notna(shown), "n/a")
+    counts = table.loc[~table.control.astype(bool), "rod_class"].value_counts()
+    tally = ", ".join(f"{counts[k]} {k.replace('_', ' ')}" for k in ("steady", "unsteady", "at_rest", "unknown")
+                      if k in counts)
+    return ("<h3>Is the rod steady? Its travel over the production</h3><p class='note'>A rod's speed U is "
+            f"<b>steady</b> when the rod travelled at least {MIN_TRAVEL_OVER_D:g} grain diameter during its "
+            f"production <b>and</b> the production's two halves agree (|z| &lt; {HALVES_Z_LIMIT:g}, z the halves' "
+            "speed difference over their batch-means errors, read as a normal deviate). Below a grain of travel the "
+            "rod has not left the cage of grains it started in: U is the creep of one frozen neighbourhood, and "
+            "another replica's neighbourhood gives another U; the halves share that neighbourhood and cannot see "
+            "it. The halves see what the travel cannot: a rod still slowing from its start-up or ageing travels "
+            "several d at no steady speed. A rod at rest (arrested) is its own class. The depth sweep's score "
+            "<code>intruder_speed_log_err</code> uses the steady rods only (its <code>points</code> name the depths "
+            "that have one); the moving rods that are not steady are scored apart as "
+            "<code>intruder_speed_log_err_unsteady</code>. Sheared rods here: " + (tally or "none") + ". "
+            "Travel in grain diameters d along +x (the halves' travels add up to the production's); "
+            "<code>validation/rod_steadiness.csv</code>.</p>" + table_html(shown))
+
+
+def drift_html(root: Path, config: dict[str, Any], case: str, runs: list[dict[str, Any]]) -> str:
+    """U - U_drift against the push, where both exist: each model's speed against its own F = 0
+    solve at the same depth (``drift_speed``, :mod:`pipeline.models.intruder_drift`), and the DEM's
+    where the case has sheared rods at F = 0; a note where no drift is stored."""
+    pushed = [r for r in runs if not r["intruder"]["control"] and not r["intruder"]["arrested"]
+              and float(r["intruder"].get("force", 1.0)) > 0.0]
+    at_zero = [r for r in runs if not r["intruder"]["control"] and float(r["intruder"].get("force", 1.0)) == 0.0]
+    rows = []
+    for target in sorted({round(float(r["intruder"]["depth_target_over_d"]), 6) for r in pushed}):
+        zero = [float(r["intruder"]["speed"]) for r in at_zero
+                if round(float(r["intruder"]["depth_target_over_d"]), 6) == target]
+        drift = float(np.mean(zero)) if zero else np.nan
+        groups: dict[tuple[bool, float], list[dict]] = {}
+        for r in pushed:
+            rod = r["intruder"]
+            if round(float(rod["depth_target_over_d"]), 6) == target:
+                groups.setdefault((bool(rod.get("force_sweep")), round(float(rod.get("push_over_yield", np.nan)), 6)),
+                                  []).append(r)
+        for (sweep, push), group in sorted(groups.items()):
+            u = float(np.mean([g["intruder"]["speed"] for g in group]))
+            steady = sum(classify(g)["steady"] for g in group)
+            rows.append({"source": "DEM", "depth / d": float(np.mean([g["intruder"]["depth_over_d"] for g in group])),
+                         "F / F_y": push, "U (m/s)": u, "U_drift (m/s)": drift,
+                         "U - U_drift (m/s)": u - drift if np.isfinite(drift) else np.nan,
+                         "note": f"{len(group)} rod{'s' if len(group) != 1 else ''}, {steady} steady"
+                                 + ("" if zero else "; no DEM rod at F = 0")})
+    # The depth sweep's push of each depth (the first replica's), to put the models' depths against F.
+    depth_push = {round(float(r["intruder"]["depth_over_d"]), 6): float(r["intruder"].get("push_over_yield", np.nan))
+                  for r in pushed if not r["intruder"].get("force_sweep")}
+    sweep_depth = [float(r["intruder"]["depth_over_d"]) for r in pushed if r["intruder"].get("force_sweep")]
+    stored = False
+    for model in model_names(config):
+        table = drift_table(root / "models" / case / f"{model}.nc")
+        if table is None:
+            continue
+        stored = True
+        for t in table.itertuples():
+            depth = t.depth_over_d if not t.sweep else (float(np.mean(sweep_depth)) if sweep_depth else np.nan)
+            push = t.push_over_yield if t.sweep else next(
+                (p for d, p in depth_push.items() if abs(d - t.depth_over_d) <= 0.5), np.nan)
+            rows.append({"source": model, "depth / d": depth, "F / F_y": push, "U (m/s)": t.speed,
+                         "U_drift (m/s)": t.drift_speed, "U - U_drift (m/s)": t.speed_minus_drift,
+                         "note": "own F = 0 solve" + ("" if np.isfinite(t.drift_speed) else ": refused")})
+    dem_drift = bool(at_zero)
+    if not stored and not dem_drift:
+        return ("<p class='note'>The drift (the rod's speed at F = 0, carried by the creep alone) is not stored yet: "
+                "no model file holds its own F = 0 solve (<code>drift_speed</code>, "
+                "<code>pipeline/models/intruder_drift.py</code>) and no DEM rod is sheared at F = 0, so U - U_drift "
+                "cannot be drawn.</p>")
+    frame = pd.DataFrame(rows)
+    # Per push the DEM first, then the models in the config's order.
+    frame = frame.assign(_dem=frame.source != "DEM").sort_values(["F / F_y", "_dem"], kind="stable").drop(columns="_dem")
+    frame = frame.astype(object).where(pd.notna(frame), "n/a")
+    return ("<h3>The drift and the push apart</h3><p class='note'>U_drift: the rod's speed at the same depth with no "
+            "push (the creep of the bed carries it): each model's own F = 0 solve, the DEM's sheared rods at F = 0 "
+            "where the case has them. U - U_drift is what the push adds; n/a where either is missing or refused. "
+            "The DEM's U is the mean of its moving rods (the note says how many are steady).</p>" + table_html(frame))
 
 
 def draws_band(path: Path, sweep: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
@@ -161,7 +266,9 @@ def force_sweep_figure(root: Path, figures: Any, case: str = "intruder") -> str:
     ax.set_ylabel("rod speed (m/s), log axis")
     ax.legend(fontsize=7)
     slopes = table[table.push_over_yield.isna()].drop(columns=[c for c in ("push_over_yield", "speed", "speed_err",
-                                                                           "replicas", "resolved") if c in table])
+                                                                           "replicas", "resolved", "steady_replicas",
+                                                                           "unsteady_replicas", "at_rest_replicas")
+                                                               if c in table])
     slopes = slopes.astype(object).where(pd.notna(slopes), "n/a")
     return (figures.add("intruder_force", fig, "The rod's speed against its push at one depth (the force sweep, held "
                         "out): DEM replica means with 2 standard errors (the replicas' scatter), each model's speed with "

@@ -8,6 +8,7 @@ COMMANDS = {
     "dem-convergence": ("pipeline.scoring.dem_convergence", "DEM field noise against core-seconds"),
     "error-check": ("pipeline.scoring.error_check", "validation/error_check.csv: replica scatter against the stated errors"),
     "decay-length": ("pipeline.scoring.decay_length", "validation/decay_length.csv: creep decay length against mu, DEM and models"),
+    "rod-steadiness": ("pipeline.scoring.rod_steadiness", "validation/rod_steadiness.csv: each rod's travel and whether its speed is steady"),
 }
 
 # A bad config or an input that is not there is the user's to mend: one line, no traceback.

@@ -16,6 +16,12 @@ depth sweep's, :func:`pipeline.scoring.uncertainty.rod_noise`), the calibration'
 draws. ``validation/force_sweep.csv`` holds per push the DEM speeds and each model's, and per model
 the slope, its difference from the DEM's with ``u_val`` and whether the slope excludes the model
 (``|s_model - s_dem| > k u_val``, k Student's t at 95 % for the Welch-Satterthwaite degrees of freedom).
+
+Steadiness (issue 55): each push's DEM row says how many of its replicas are steady, unsteady or at
+rest (``steady_replicas``, ``unsteady_replicas``, ``at_rest_replicas``; the rule of
+:mod:`pipeline.scoring.rod_steadiness`, each rod in ``validation/rod_steadiness.csv``). The sweep's
+scores still use every replica: the shape of U(F) needs its pushes, and at the creeping pushes no
+rod of the default travels a grain; the labels say which points are not steady states.
 """
 from __future__ import annotations
 
@@ -29,6 +35,7 @@ import xarray as xr
 
 from pipeline.common.config import derived_seed
 from pipeline.scoring.intruder_scores import intruder_noise_terms
+from pipeline.scoring.rod_steadiness import classify
 from pipeline.scoring.uncertainty import ScoreSamples, coverage_factor, rod_noise, welch_satterthwaite
 
 LOG_METRIC = "intruder_force_log_err"
@@ -43,6 +50,20 @@ def sweep_speeds(runs: list[dict]) -> dict[float, list[tuple[float, float]]]:
         if rod.get("force_sweep") and not rod["control"]:
             out.setdefault(round(float(rod["push_over_yield"]), 6), []).append((float(rod["speed"]), float(rod["speed_err"])))
     return dict(sorted(out.items()))
+
+
+def sweep_steadiness(runs: list[dict]) -> dict[float, dict[str, int]]:
+    """Per push (as :func:`sweep_speeds` keys it), how many sheared force-sweep rods are in each
+    class of :func:`pipeline.scoring.rod_steadiness.classify` (``steady``, ``unsteady``,
+    ``at_rest``, ``unknown``)."""
+    out: dict[float, dict[str, int]] = {}
+    for r in runs:
+        rod = r["intruder"]
+        if rod.get("force_sweep") and not rod["control"]:
+            counts = out.setdefault(round(float(rod["push_over_yield"]), 6), {})
+            kind = classify(r)["rod_class"]
+            counts[kind] = counts.get(kind, 0) + 1
+    return out
 
 
 def slope(push: np.ndarray, log_speed: np.ndarray) -> float:
@@ -101,9 +122,12 @@ def score_force_sweep(runs: list[dict], model_files: dict[str, Path], draw_files
     pair_noise = float(np.sqrt(np.mean(np.square(pair_terms)))) if pair_terms else math.nan
     dem_slopes = np.array([slope(pushes, row) for row in dem_resampled])
     rows, samples, table = [], {}, []
+    classes = sweep_steadiness(runs)
     for p, m, e, ok in zip(pushes, mean, sem, resolved):
+        kinds = classes.get(p, {})
         table.append({"push_over_yield": p, "source": "dem", "speed": m, "speed_err": e, "replicas": speeds[p].size,
-                      "resolved": bool(ok)})
+                      "resolved": bool(ok), "steady_replicas": kinds.get("steady", 0),
+                      "unsteady_replicas": kinds.get("unsteady", 0), "at_rest_replicas": kinds.get("at_rest", 0)})
     table.append({"source": "dem", "slope": dem_slope, "slope_u": float(np.nanstd(dem_slopes, ddof=1)),
                   "dem_dof": noise.dof})
     for model, path in sorted(model_files.items()):
