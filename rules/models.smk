@@ -140,3 +140,30 @@ rule intruder_model_draws_merge:
         "python -m pipeline.models intruder-draws merge --config {input.config} --params {input.params} "
         "--model {wildcards.model} --runs {input.runs} --fields {input.fields} --states {input.states} "
         "--draws {input.draws} --parts {input.parts} --out {output} > {log} 2>&1"
+
+
+rule intruder_model_fields:
+    priority: targets.AFTER_DEM_PRIORITY
+    message:
+        "Model {wildcards.model}: 2D fields around the rod of {wildcards.case}"
+    conda:
+        ENV
+    input:
+        config=CONFIG_JSON,
+        params=f"{ROOT}/calibration/params.json",
+        runs=intruder_runs,
+        fields=case_fields,
+        states=f"{ROOT}/models/{{case}}/{{model}}.states.npz",
+    output:
+        directory(f"{ROOT}/model_fields/{{case}}/{{model}}"),
+    wildcard_constraints:
+        case="|".join(layout.intruder_cases(config)) or "no_intruder_case",
+        model="|".join(layout.INTRUDER_MODELS),
+    log:
+        f"{ROOT}/logs/model_fields/{{case}}/{{model}}.log",
+    benchmark:
+        f"{ROOT}/benchmarks/model_fields/{{case}}/{{model}}.tsv"
+    shell:
+        "python -m pipeline.models intruder-fields --config {input.config} --params {input.params} "
+        "--model {wildcards.model} --runs {input.runs} --fields {input.fields} --states {input.states} "
+        "--out-dir {output} > {log} 2>&1"

@@ -31,6 +31,8 @@ rule report:
         failures=f"{ROOT}/stability/failure_catalogue.csv",
         dem_convergence=layout.convergence_paths(config),
         intruder_fields=layout.intruder_plane_paths(config),
+        intruder_model_fields=layout.intruder_model_fields_dirs(config),
+        intruder_field_scores=f"{ROOT}/validation/intruder_fields.csv",
     output:
         html=f"{ROOT}/report.html",
         figures=[

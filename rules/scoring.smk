@@ -15,6 +15,8 @@ rule scores:
         intruder_runs=layout.all_intruder_run_jsons(config),
         intruder_models=layout.intruder_model_paths(config),
         intruder_model_draws=layout.intruder_model_draw_paths(config),
+        intruder_fields_xz=layout.intruder_plane_paths(config),
+        intruder_model_fields=layout.intruder_model_fields_dirs(config),
         params=f"{ROOT}/calibration/params.json",
     output:
         scores=report(f"{ROOT}/scores.csv", caption="../docs/report/scores.rst", category="Scoring"),
@@ -23,6 +25,7 @@ rule scores:
         scene_needs=f"{ROOT}/validation/scene_needs.csv",
         force_sweep=f"{ROOT}/validation/force_sweep.csv",
         wall=f"{ROOT}/validation/wall.csv",
+        intruder_fields=f"{ROOT}/validation/intruder_fields.csv",
     log:
         f"{ROOT}/logs/scores.log",
     benchmark:
@@ -33,6 +36,8 @@ rule scores:
         "--intruder-runs {input.intruder_runs} --intruder-models {input.intruder_models} --params {input.params} "
         "--out {output.scores} --verdict-out {output.verdict} --differences-out {output.differences} "
         "--scene-needs-out {output.scene_needs} --force-sweep-out {output.force_sweep} --wall-out {output.wall} "
+        "--intruder-fields-xz {input.intruder_fields_xz} --intruder-model-fields {input.intruder_model_fields} "
+        "--intruder-fields-out {output.intruder_fields} "
         "> {log} 2>&1"
 
 

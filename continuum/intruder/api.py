@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from typing import Any, Callable
 
 import numpy as np
+import xarray as xr
 
 from .. import solve as solve_planar
 from ..errors import OutOfRangeError
@@ -30,6 +31,7 @@ from .mu_i2d import MuIRodSolver
 from .ngf2d import FROZEN, NGFRodSolver, solve_frozen
 from .volume_averaged2d import VolumeAveragedRodSolver
 from .scene import GridOptions, IntruderSpeed, RodIntruder
+from .yield2d import YieldRodSolver
 
 Estimate = Callable[[PlanarShear, Any, RodIntruder, float, GridOptions, dict, "str | None"], IntruderSpeed]
 
@@ -163,3 +165,83 @@ def intruder_speed(model: str, geometry: PlanarShear, params: Any, intruder: Rod
     return IntruderSpeed(model, sol.speed, sol.converged, sol.iterations, sol.residual, sol.solve_seconds,
                          sol.n_grid, "2d", attrs.pop("drift_speed"), attrs.pop("mobility"),
                          planar_solve_seconds=sol.planar_seconds, fields=sol.fields, attrs=attrs, state=sol.state)
+
+
+def intruder_fields(model: str, geometry: PlanarShear, params: Any, intruder: RodIntruder, cell_length_x: float,
+                    grid: GridOptions, state: dict[str, np.ndarray], case: str | None = None) -> xr.Dataset:
+    """The 2D fields of a converged solve of the label's 2D solver, rebuilt from its ``state``
+    (``IntruderSpeed.state``, e.g. a stored warm start) on the same
+    scene and grid, without solving again: the state's own flow (NGF: one Stokes solve with the
+    state's fluidity and pressure, the flow the converged solve ended on; the Newton solvers: the
+    flow of the state's unknowns at the last regularisation).
+
+    Returns the solve's Dataset on (z, x) (cell centres, m; x in the cell, the rod's centre at
+    ``cell_length_x / 2``; z above the bottom contact plane), as ``IntruderSpeed.fields``: u_x,
+    u_z (m s-1, lab frame; the rod's rigid motion inside it), shear_rate, p, mu (tau / p, tau the
+    in-plane deviatoric stress magnitude), solid, the model's own fields (NGF: fluidity; Cosserat:
+    spin), and besides them: the stresses ``sigma_xx``, ``sigma_zz``, ``sigma_xz`` (Pa,
+    compressive positive, the DEM's convention: sigma_xz the x force across z planes), ``mu_xz``
+    (|sigma_xz| / p, the DEM's fields' stress ratio) and ``nu`` where the model has a solid
+    fraction (local mu(I): nu(I) of the local inertial number; Cosserat: nu_cs(p); critical state
+    and the volume-averaged model: the 1D solution's packing at that height, which their 2D solve
+    carries unchanged; NGF: none), with the method in its ``nu_method`` attribute. NaN inside the
+    rod except u_x, u_z, solid. Attributes: ``rod_speed`` (the rod's speed in these fields, m s-1:
+    for a rate-independent model whose speed is 0 in the limit, the last regularisation's bound).
+
+    Raises KeyError (unknown label), ValueError (a label without a 2D solver, or a state of
+    another grid).
+    """
+    if model not in INTRUDER_MODELS:
+        raise KeyError(f"unknown intruder model {model!r}; known: {sorted(INTRUDER_MODELS)}")
+    entry = INTRUDER_MODELS[model]
+    if entry.solver is None:
+        raise ValueError(f"{model} has no 2D solver: no fields to rebuild")
+    solver = entry.solver(geometry, params, cell_length_x, intruder, grid, case)
+    size = np.size(state.get("u", state.get("p", np.empty(0))))
+    if size != solver.grid.n_cells:
+        raise ValueError(f"{model}: the state has {size} cells, the grid {solver.grid.n_cells} "
+                         f"({solver.grid.nx} x {solver.grid.nz}): another grid")
+    with np.errstate(under="ignore"):
+        if isinstance(solver, YieldRodSolver):
+            disc = solver._discretisation()
+            y = solver._vector({k: np.asarray(v, dtype=float) for k, v in state.items()}, disc)
+            ev = solver._evaluate(y, disc, solver.regularisations[-1], False)
+            flow = solver._flow(y, ev, disc)
+            fields: dict[str, np.ndarray] = {}
+        else:
+            fields = {k: np.asarray(state[k], dtype=float) for k in solver.field_tolerances}
+            flow = solver._flow_of(fields, np.asarray(state["p"], dtype=float))
+        ds = solver._dataset(flow, fields)
+    nz, nx = solver.grid.nz, solver.grid.nx
+    solid = solver.mask.solid_cells
+
+    def add(name: str, values: np.ndarray, units: str, long_name: str) -> None:
+        ds[name] = (("z", "x"), np.where(solid, np.nan, values).reshape(nz, nx), {"units": units, "long_name": long_name})
+
+    add("sigma_xx", flow.pi - flow.s_xx, "Pa", "normal stress xx, compressive positive (NaN inside the rod)")
+    add("sigma_zz", flow.pi + flow.s_xx, "Pa", "normal stress zz, compressive positive (NaN inside the rod)")
+    add("sigma_xz", -flow.s_xz, "Pa", "shear stress xz (x force across z planes), compressive-positive sign "
+        "(NaN inside the rod)")
+    add("mu_xz", np.abs(flow.s_xz) / flow.p_eff, "1", "stress ratio |sigma_xz| / p, the DEM fields' definition "
+        "(NaN inside the rod)")
+    nu, method = _solid_fraction(model, solver, flow)
+    if nu is not None:
+        add("nu", nu, "1", f"solid fraction: {method} (NaN inside the rod)")
+        ds.attrs["nu_method"] = method
+    ds.attrs["rod_speed"] = float(flow.rod_speed)
+    return ds
+
+
+def _solid_fraction(model: str, solver: RodSolver, flow: Any) -> tuple[np.ndarray | None, str]:
+    """The model's solid fraction on the cells and how it is obtained (``intruder_fields``)."""
+    params, geo = solver.params, solver.geometry
+    if model == "local_mu_i":
+        inertial = flow.shear_rate * geo.d / np.sqrt(flow.p_eff / geo.rho_s)
+        return params.solid_fraction.nu(inertial), "nu(I) = nu_c - a I of the local inertial number"
+    if model == "cosserat":
+        return params.critical.line.nu_cs(flow.p_eff), "nu_cs(p), the critical state (steady flow at alpha = 1)"
+    if isinstance(solver, YieldRodSolver):
+        planar = solver.planar_solution()
+        return (np.interp(solver.z_cells, planar.z.values, planar.nu.values),
+                "the 1D solution's packing at that height (the 2D solve carries it unchanged)")
+    return None, ""

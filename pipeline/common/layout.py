@@ -107,6 +107,12 @@ def intruder_model_paths(config: dict[str, Any]) -> list[str]:
             for model in model_names(config) if model in INTRUDER_MODELS]
 
 
+def intruder_model_fields_dirs(config: dict[str, Any]) -> list[str]:
+    """``model_fields/{case}/{model}`` folders (each model's 2D fields per scene) of the intruder cases."""
+    return [str(root(config) / "model_fields" / case / model) for case in intruder_cases(config)
+            for model in model_names(config) if model in INTRUDER_MODELS]
+
+
 def intruder_draw_jobs(config: dict[str, Any]) -> int:
     """Jobs the parameter draws of each intruder model are split into (``models.intruder_draw_jobs``;
     absent: one)."""

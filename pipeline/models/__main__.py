@@ -5,6 +5,7 @@ COMMANDS = {
     "planar": ("pipeline.models.planar", "one model on a planar case (1D profile)"),
     "intruder": ("pipeline.models.intruder", "one model's intruder speed at the DEM depths"),
     "intruder-draws": ("pipeline.models.intruder_draws", "an intruder model's parameter draws and grid study, in parts"),
+    "intruder-fields": ("pipeline.models.intruder_fields", "an intruder model's 2D fields per scene (CF NetCDF and VTK)"),
     "predict": ("pipeline.models.predict", "every model on candidate planar cases from the config alone, before any DEM"),
 }
 

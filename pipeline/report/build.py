@@ -30,6 +30,7 @@ from pipeline.common.layout import (convergence_cases, convergence_paths, creepi
 from pipeline.dem.wall_series import read_wall_series
 from pipeline.report.creep_section import decay_length_section
 from pipeline.report.halves_section import creep_halves_section
+from pipeline.report.intruder_fields_section import intruder_fields_section
 from pipeline.report.intruder_section import intruder_section
 from pipeline.report.scores_section import score_section
 from pipeline.report.style import MODEL_STYLE
@@ -405,6 +406,7 @@ def build_report(config: dict[str, Any], figure_dir: Path | None = None) -> str:
         decay_length_section(root, figures) if (root / "validation" / "decay_length.csv").exists() else "",
         profiles_section(root, config, figures),
         intruder_section(root, config, figures) if intruder_cases(config) else "",
+        intruder_fields_section(root, config, figures) if intruder_cases(config) else "",
         calibration_section(root, figures),
         wall_section(root, figures),
         pareto_section(root, figures),

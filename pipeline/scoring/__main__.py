@@ -8,6 +8,7 @@ COMMANDS = {
     "dem-convergence": ("pipeline.scoring.dem_convergence", "DEM field noise against core-seconds"),
     "error-check": ("pipeline.scoring.error_check", "validation/error_check.csv: replica scatter against the stated errors"),
     "decay-length": ("pipeline.scoring.decay_length", "validation/decay_length.csv: creep decay length against mu, DEM and models"),
+    "intruder-field-scores": ("pipeline.scoring.intruder_field_scores", "the intruder models' 2D fields against the DEM's x-z fields"),
     "rod-steadiness": ("pipeline.scoring.rod_steadiness", "validation/rod_steadiness.csv: each rod's travel and whether its speed is steady"),
 }
 

@@ -30,6 +30,7 @@ from pipeline.common import atomic
 from pipeline.common.config import derived_seed, load_config
 from pipeline.scoring import metrics, verdict
 from pipeline.scoring.force_sweep import score_force_sweep
+from pipeline.scoring.intruder_field_scores import score_intruder_fields
 from pipeline.scoring.intruder_scores import score_intruder
 from pipeline.scoring.metrics import MetricError, Profile
 from pipeline.scoring.replicas import (WALL_MARGIN_OVER_D, align_replicas, interior, mean_profile,  # noqa: F401 (re-exported)
@@ -253,6 +254,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--differences-out", type=Path, help="validation/model_differences.csv: every pair of models")
     parser.add_argument("--scene-needs-out", type=Path, help="validation/scene_needs.csv")
     parser.add_argument("--force-sweep-out", type=Path, help="validation/force_sweep.csv: the rod's speed against its push")
+    parser.add_argument("--intruder-fields-xz", nargs="*", default=[], type=Path, help="fields_xz/intruder/RUN.nc files")
+    parser.add_argument("--intruder-model-fields", nargs="*", default=[], type=Path,
+                        help="model_fields/intruder/MODEL folders (each model's 2D fields per scene)")
+    parser.add_argument("--intruder-fields-out", type=Path, help="validation/intruder_fields.csv")
     parser.add_argument("--wall-out", type=Path, help="validation/wall.csv: the planar cases' top wall, DEM and models")
     args = parser.parse_args(argv)
     config = load_config(args.config) if args.config else {}
@@ -273,6 +278,15 @@ def main(argv: list[str] | None = None) -> int:
         if args.force_sweep_out is not None:
             atomic.write_csv(sweep, args.force_sweep_out)
             print(sweep.to_string(index=False))
+    if args.intruder_fields_xz and args.intruder_model_fields:
+        field_scores = score_intruder_fields(args.intruder_fields_xz, args.intruder_model_fields, settings)
+        if field_scores.rows:
+            frames.append(pd.DataFrame(field_scores.rows, columns=COLUMNS))
+            samples |= field_scores.samples
+        if args.intruder_fields_out is not None:
+            atomic.write_csv(field_scores.table(COLUMNS), args.intruder_fields_out)
+    if args.intruder_fields_out is not None and not args.intruder_fields_out.exists():
+        atomic.write_csv(pd.DataFrame(columns=["case", "model", "metric", "scene"]), args.intruder_fields_out)
     if args.force_sweep_out is not None and not args.force_sweep_out.exists():
         atomic.write_csv(pd.DataFrame(columns=["push_over_yield", "source", "speed", "note"]), args.force_sweep_out)
     params = json.loads(args.params.read_text())
