@@ -8,11 +8,16 @@ wall move relative to it by b times the shear rate there.
 b is calibrated on the calibration set only (``calibration.wall_slip``):
 
 - ``rheometer`` (the default): each rheometer run's two walls, in homogeneous shear, give
-  b = (s_top + s_bottom) / (2 gammadot), gammadot the bulk shear rate, s the slips. The states'
-  b are combined by their weighted mean; where their reduced chi2 exceeds 1 (the states scatter
-  beyond their errors: b depends on the state, or the errors are short) the mean's error is
-  scaled by sqrt(chi2_reduced). Whether b depends on I is reported (a weighted line in log10 I,
-  its slope over its error), not modelled.
+  b = (s_top + s_bottom) / (2 gammadot), gammadot the bulk shear rate, s the slips (the bulk's
+  straight line extrapolated to the contact planes). The runs used are those that flow
+  homogeneously: I >= :data:`MIN_INERTIAL` (below it the quasi-static layer's time-averaged
+  profile is intermittent, and its extrapolation to the walls no Navier slip: on the default of
+  2026-12-06 b ran from -1.0 to 3.7 d at I = 0.005) and a bulk I spread under
+  :data:`MAX_SPREAD` of I. Their b are averaged with equal weights, the error from their scatter
+  (standard error): the runs' stated errors are 10-30 times smaller than the replicas'
+  differences (the packing's realisation, not the time average, sets b), which the stated-error
+  chi2 reports. Whether b depends on I is reported (a line in log10 I, its slope over its
+  error), not modelled.
 - ``calibration_case``: the top wall's b of the calibration case's replicas (``wall_top_slip_length``),
   their mean, the error from their scatter.
 - ``none``: no slip (b = 0), the models' walls as before issue 54.
@@ -34,6 +39,11 @@ from pipeline.common.formats import open_fields
 
 SOURCES = ("rheometer", "calibration_case", "none")
 
+#: The smallest inertial number of a rheometer run whose walls calibrate b (module doc).
+MIN_INERTIAL = 0.05
+#: The largest bulk spread of I, over I, of a run that shears homogeneously.
+MAX_SPREAD = 0.25
+
 _NEEDED = ("wall_top_slip", "wall_top_slip_err", "wall_bottom_slip", "wall_bottom_slip_err")
 
 
@@ -54,21 +64,24 @@ def rheometer_state(path: Path, state: dict[str, Any]) -> dict[str, float]:
     slip = 0.5 * (a["wall_top_slip"] + a["wall_bottom_slip"])
     slip_err = 0.5 * math.hypot(a["wall_top_slip_err"], a["wall_bottom_slip_err"])
     b = slip / rate
-    return {"run": a["run"], "I": float(state["I"]), "slip_top": a["wall_top_slip"], "slip_bottom": a["wall_bottom_slip"],
+    return {"run": a["run"], "I": float(state["I"]), "I_spread_over_I": float(state.get("I_spread", math.nan)) / float(state["I"]),
+            "slip_top": a["wall_top_slip"], "slip_bottom": a["wall_bottom_slip"],
             "shear_rate": rate, "slip_length": b,
             "slip_length_err": abs(b) * math.hypot(slip_err / slip if slip else math.inf, rate_err / rate),
             "slip_length_over_d": b / a["d"]}
 
 
-def weighted_mean(values: np.ndarray, errors: np.ndarray) -> dict[str, float]:
-    """Weighted mean, its error scaled by sqrt(chi2_reduced) where that exceeds 1, and the chi2."""
-    w = 1.0 / errors**2
-    mean = float(np.sum(w * values) / np.sum(w))
-    err = float(1.0 / math.sqrt(np.sum(w)))
+def scatter_mean(values: np.ndarray, errors: np.ndarray) -> dict[str, float]:
+    """Equal-weight mean, its standard error from the values' scatter, and the reduced chi2 of the
+    values about it with their stated errors (how far the scatter exceeds them)."""
+    if values.size < 2:
+        raise CalibrationError(f"the wall's slip length needs two or more rheometer runs that flow homogeneously "
+                               f"(I >= {MIN_INERTIAL}, bulk I spread under {MAX_SPREAD} I), got {values.size}")
+    mean = float(values.mean())
     dof = values.size - 1
-    chi2 = float(np.sum(w * (values - mean) ** 2) / dof) if dof > 0 else math.nan
-    scale = math.sqrt(chi2) if math.isfinite(chi2) and chi2 > 1.0 else 1.0
-    return {"value": mean, "error": err * scale, "chi2_reduced": chi2, "dof": dof, "error_scale": scale}
+    chi2 = float(np.sum(((values - mean) / errors) ** 2) / dof)
+    return {"value": mean, "error": float(values.std(ddof=1) / math.sqrt(values.size)), "chi2_reduced": chi2,
+            "dof": dof, "n_runs": int(values.size)}
 
 
 def inertial_trend(states: list[dict[str, float]]) -> dict[str, float]:
@@ -82,7 +95,7 @@ def inertial_trend(states: list[dict[str, float]]) -> dict[str, float]:
     cov = np.linalg.inv(design.T @ (design * w[:, None]))
     coef = cov @ (design.T @ (w * y))
     chi2 = float(np.sum(w * (y - design @ coef) ** 2) / max(1, x.size - 2))
-    err = math.sqrt(cov[1, 1] * max(1.0, chi2))
+    err = math.sqrt(cov[1, 1] * max(1.0, chi2))  # the stated errors are short of the scatter: scaled to it
     return {"slope_per_decade": float(coef[1]), "slope_err": err, "z": float(coef[1] / err)}
 
 
@@ -108,10 +121,14 @@ def calibrate_wall(source: str, rheometer_files: Sequence[Path], states: list[di
     if source not in SOURCES:
         raise CalibrationError(f"calibration.wall_slip = {source!r}: choose one of {', '.join(SOURCES)}")
     per_state = [rheometer_state(Path(f), s) for f, s in zip(rheometer_files, states)]
-    good = [s for s in per_state if math.isfinite(s["slip_length"]) and s["slip_length_err"] > 0]
-    rheometer = weighted_mean(np.array([s["slip_length"] for s in good]), np.array([s["slip_length_err"] for s in good]))
+    for state in per_state:
+        state["used"] = bool(math.isfinite(state["slip_length"]) and state["slip_length_err"] > 0
+                             and state["I"] >= MIN_INERTIAL and state["I_spread_over_I"] <= MAX_SPREAD)
+    good = [s for s in per_state if s["used"]]
+    rheometer = scatter_mean(np.array([s["slip_length"] for s in good]), np.array([s["slip_length_err"] for s in good]))
     rheometer |= {"states": per_state, "inertial_trend": inertial_trend(good),
-                  "method": "weighted mean of (s_top + s_bottom) / (2 gammadot_bulk) over the rheometer runs"}
+                  "method": (f"equal-weight mean of (s_top + s_bottom) / (2 gammadot_bulk) over the rheometer runs with "
+                             f"I >= {MIN_INERTIAL} and a bulk I spread under {MAX_SPREAD} I; error from their scatter")}
     case = calibration_case_slip(nonlocal_files) if nonlocal_files else {}
     entry: dict[str, Any] = {"source": source, "rheometer": rheometer, "calibration_case": case}
     if case.get("error", math.nan) > 0:
