@@ -59,6 +59,30 @@ rule rod_steadiness:
         "python -m pipeline.scoring rod-steadiness --intruder-runs {input.intruder_runs} --out {output} > {log} 2>&1"
 
 
+rule claims_cost:
+    priority: targets.AFTER_DEM_PRIORITY
+    message:
+        "The verdict's claims with less DEM: prefixes of every production and fewer replicas, against core-hours"
+    conda:
+        ENV
+    input:
+        config=CONFIG_JSON,
+        differences=f"{ROOT}/validation/model_differences.csv",
+        verdict=f"{ROOT}/validation/verdict.csv",
+        scores=f"{ROOT}/scores.csv",
+    output:
+        table=f"{ROOT}/validation/claims_cost.csv",
+        pairs=f"{ROOT}/validation/claims_cost_pairs.csv",
+    params:
+        root=targets.output_root_of_scores,
+    log:
+        f"{ROOT}/logs/claims_cost.log",
+    benchmark:
+        f"{ROOT}/benchmarks/claims_cost.tsv"
+    shell:
+        "python -m pipeline.scoring claims-cost --root {params.root} --out {output.table} --pairs-out {output.pairs} > {log} 2>&1"
+
+
 rule cost_accuracy:
     priority: targets.AFTER_DEM_PRIORITY
     message:

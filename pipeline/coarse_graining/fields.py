@@ -31,8 +31,8 @@ import pandas as pd
 import xarray as xr
 
 from pipeline.coarse_graining import field_checks, structure, wall
-from pipeline.coarse_graining.coarse_grain import (CoarseGrainError, Result, block_average, coarse_grain, plane_grid, profile_grid,
-                                                   write_netcdf)
+from pipeline.coarse_graining.coarse_grain import (CoarseGrainError, Grid, Result, block_average, coarse_grain, plane_grid,
+                                                   profile_grid, write_netcdf)
 from pipeline.coarse_graining.pairing import check_contacts_match, contact_index
 from pipeline.dumps.store import STORE_NAME, parse_run, read_run_json, read_store
 from pipeline.dumps.reader import Dump, DumpError, shift_periodic_x
@@ -121,12 +121,15 @@ def production_series(run_dir: Path, run: dict[str, Any]) -> pd.DataFrame:
 
 def run_fields(config: dict[str, Any], run_dir: Path, plane: bool = False,
                width: float | None = None, checks: bool = True,
-               x_shift: Callable[[Dump, np.ndarray], np.ndarray] | None = None) -> tuple[Result, dict[str, Any]]:
+               x_shift: Callable[[Dump, np.ndarray], np.ndarray] | None = None,
+               z: np.ndarray | None = None) -> tuple[Result, dict[str, Any]]:
     """Coarse-grain one run; return the result (dataset with attributes) and the checks
     (none with ``checks=False``, for studies that only need the fields).
 
     ``x_shift(particles, snapshots)`` gives a shift along the periodic x (m) per steady snapshot:
-    the snapshots are moved by it before averaging (a moving frame, e.g. an intruder's).
+    the snapshots are moved by it before averaging (a moving frame, e.g. an intruder's). ``z``
+    (m), for profiles: the heights to evaluate at instead of the grid between the walls' mean
+    heights (another file's nodes, so that the two compare point by point).
     """
     run_dir = Path(run_dir)
     run = read_run_json(run_dir)
@@ -149,6 +152,8 @@ def run_fields(config: dict[str, Any], run_dir: Path, plane: bool = False,
     if plane:
         box = particles.boxes[chosen[0]]
         grid = plane_grid(float(box[0, 0]), float(lx), walls.bottom_mean, walls.top_mean, spacing)
+    elif z is not None:
+        grid = Grid(np.asarray(z, dtype=float))
     else:
         grid = profile_grid(walls.bottom_mean, walls.top_mean, dz=spacing)
     result = coarse_grain(particles, contacts, kernel, grid, snapshots=chosen, d=d, rho_s=float(run["density"]),

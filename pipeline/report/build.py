@@ -28,6 +28,7 @@ from pipeline.common.provenance import software_versions
 from pipeline.common.layout import (convergence_cases, convergence_paths, creeping_cases, fields_paths, intruder_cases, model_names, scored_cases,
                                     shared_fill_paths)
 from pipeline.dem.wall_series import read_wall_series
+from pipeline.report.claims_section import claims_section
 from pipeline.report.creep_section import decay_length_section
 from pipeline.report.halves_section import creep_halves_section
 from pipeline.report.intruder_fields_section import intruder_fields_section
@@ -411,6 +412,7 @@ def build_report(config: dict[str, Any], figure_dir: Path | None = None) -> str:
         wall_section(root, figures),
         pareto_section(root, figures),
         dem_convergence_section(root, config, figures) if convergence_cases(config) else "",
+        claims_section(root, figures),
         stability_section(root, figures),
         "<h2>DEM runs</h2>",
         "<h3>DEM cost per case</h3>",

@@ -10,6 +10,7 @@ COMMANDS = {
     "decay-length": ("pipeline.scoring.decay_length", "validation/decay_length.csv: creep decay length against mu, DEM and models"),
     "intruder-field-scores": ("pipeline.scoring.intruder_field_scores", "the intruder models' 2D fields against the DEM's x-z fields"),
     "rod-steadiness": ("pipeline.scoring.rod_steadiness", "validation/rod_steadiness.csv: each rod's travel and whether its speed is steady"),
+    "claims-cost": ("pipeline.scoring.claims_cost", "validation/claims_cost.csv: the verdict's claims with less DEM, against its core-hours"),
 }
 
 # A bad config or an input that is not there is the user's to mend: one line, no traceback.

@@ -174,6 +174,11 @@ def run_folder_of_input(wildcards: Any, input: Any) -> str:  # noqa: A002 (Snake
     return str(Path(input.run).parent)
 
 
+def output_root_of_scores(wildcards: Any, input: Any) -> str:  # noqa: A002 (Snakemake's name)
+    """The output root a rule reads, from its ``scores`` input (``ROOT/scores.csv``)."""
+    return str(Path(input.scores).parent)
+
+
 def figure_folder(wildcards: Any, output: Any) -> str:
     """Folder the report's figures are written to."""
     return str(Path(output.figures[0]).parent)

@@ -1,0 +1,801 @@
+"""The verdict against the DEM it had: each claim of ``model_differences.csv`` with less DEM (issue 57, item 2).
+
+Which of the report's claims would stand with a shorter production or fewer replicas, and what that
+DEM costs. For each *variant* of a finished output root the held-out cases are scored again and
+judged again (:func:`pipeline.scoring.scores.score_case`, :func:`pipeline.scoring.verdict.judge`,
+:func:`pipeline.scoring.intruder_scores.score_intruder`, :func:`pipeline.scoring.force_sweep.score_force_sweep`,
+the workflow's own functions, with the root's config, seed and confidence):
+
+- ``prefix 1/8``, ``1/4``, ``1/2``: every run of the case re-coarse-grained from the first fraction
+  of its production's snapshots (:func:`prefix_count`: never fewer than 2), from the dumps the run
+  already wrote (no new DEM). A scratch run folder ``ROOT/claims_cost/dem/<tag>/<case>/<run>/`` holds
+  the run's ``run.json`` with its steady-state and production windows cut at the last kept snapshot
+  (links to its ``dumps.nc`` and ``series/``), so :func:`pipeline.coarse_graining.fields.run_fields`
+  picks those snapshots by its own rule and the wall's series over the same prefix. The variant is
+  coarse-grained on the root's fields' z grid (the models' nodes) and written to
+  ``ROOT/claims_cost/fields/<tag>/<case>/<run>.nc``; the root's own fields are never touched. The
+  intruder's rods: each rod's speed, its error and ``arrested`` recomputed from its position series
+  over the same prefix of its production window (:func:`pipeline.dem.rod_speed.creep_speed`, with
+  fewer blocks where the prefix holds fewer than 3 samples per block);
+- ``replicas r1+r2`` ...: the root's fields of a subset of the case's replicas (each one left out in
+  turn, then the first m, down to ``--min-replicas``). A subset without the first replica is placed
+  on the first one's z by its top contact plane, as the scoring aligns every replica;
+- ``full``: the root's own fields and rods through today's scoring code: the control (it confirms
+  every claim unless the scoring code changed since the root was scored).
+
+**Models fixed at the full calibration**: the models' nominal solutions (``models/``) and parameter
+draws (``model_draws/``) stay those of the full root; only the DEM references change. (The
+calibration's own DEM, the rheometer and ``calibration.nonlocal_case``, is not cut, and not counted.)
+
+Claims (:func:`claims`): per held-out case, metric and pair of models, ``a_better``, ``b_better``
+or ``cannot_tell_apart`` as ``model_differences.csv`` states them; a pair where exactly one model's
+score is infinite (it predicts no creep where the DEM creeps: the verdict's ``worse``) counts as
+told apart, the finite one better. A variant's claim against the full root's (:func:`compare_claims`):
+**confirmed** (told apart the same way), **lost** (the full root told them apart, the variant cannot,
+or cannot score the pair: ``unscored`` counts these), **contradicted** (told apart the other way),
+**new** (told apart where the full root cannot); ``still_cannot_tell_apart`` the rest. Only
+(case, metric) pairs the full root's table holds are compared.
+
+DEM cost (:func:`run_cost`, :func:`variant_cost`): per case, the LIGGGHTS wall seconds of its
+scored runs times their MPI ranks (``run.json`` ``wall_seconds_by_stage``), the fill and the shear
+to steady state paid in full, the production scaled by the fraction of it kept (its snapshots kept
+over its snapshots), plus the shared fills and sheared beds the kept runs started from (``fill.json``,
+counted once), in core-hours. ``dem_core_hours_with_window``: the same where the production cannot
+be shorter than the steady-state test's window it begins with
+(``production_chunks_from_steady_window`` of ``production_chunks``): what such a run would cost today.
+
+Outputs: ``--out`` (one row per case and variant, :data:`COLUMNS`), ``--pairs-out`` (default
+``<out>_pairs.csv``: every compared pair with both claims and its status) and ``--figure`` (claims
+held against DEM core-hours, per case: :func:`claims_figure`).
+
+Usage: ``python -m pipeline.scoring claims-cost --root ROOT --out ROOT/validation/claims_cost.csv
+--figure ROOT/figures/claims_cost.png [--fractions 0.125 0.25 0.5] [--min-replicas 1] [--combine]``
+"""
+from __future__ import annotations
+
+import argparse
+import itertools
+import json
+import math
+import os
+import re
+import time
+from dataclasses import dataclass, field
+from fractions import Fraction
+from pathlib import Path
+from typing import Any, Iterable
+
+import numpy as np
+import pandas as pd
+import xarray as xr
+
+from pipeline.common import atomic, layout
+from pipeline.common.cli import positive_int
+from pipeline.common.config import dem_runs, size_study_cell
+from pipeline.scoring import verdict
+from pipeline.scoring.metrics import MetricError
+from pipeline.scoring.replicas import top_plane
+
+#: Fractions of the production kept by default (issue 57).
+FRACTIONS = (0.125, 0.25, 0.5)
+#: Fewest snapshots a prefix keeps (an average and a block error need two).
+MIN_SNAPSHOTS = 2
+#: What the variants keep fixed, in every row's notes.
+MODELS_FIXED = "models fixed at the full calibration"
+#: A variant's claim against the full root's.
+STATUSES = ("confirmed", "lost", "contradicted", "new", "still_cannot_tell_apart")
+TOLD_APART = ("a_better", "b_better")
+COLUMNS = ["case", "variant", "fraction", "replicas", "dem_core_hours", "confirmed", "lost", "contradicted", "new",
+           "claims_full", "still_cannot_tell_apart", "unscored", "pairs", "dem_core_hours_full",
+           "dem_core_hours_with_window", "particle_steps", "runs", "notes"]
+PAIR_COLUMNS = ["case", "variant", "metric", "model_a", "model_b", "claim_full", "claim_variant", "status"]
+#: The fields attributes that are heights in the DEM frame (moved with a replica put on another's z).
+Z_ATTRS = ("z_bottom_wall", "z_top_wall", "z_bottom_contact_plane", "z_top_contact_plane")
+#: Attributes a variant's fields file carries, so that a later call can reuse it.
+FRACTION_ATTR = "claims_cost_fraction"
+
+Key = tuple[str, str, str, str]  # case, metric, model_a, model_b (model_a < model_b)
+
+
+# ----------------------------------------------------------------------------------- claims
+def _flip(claim: str) -> str:
+    return {"a_better": "b_better", "b_better": "a_better"}.get(claim, claim)
+
+
+def _put(out: dict[Key, str], case: str, metric: str, a: str, b: str, claim: str) -> None:
+    if a > b:
+        a, b, claim = b, a, _flip(claim)
+    out[(case, metric, a, b)] = claim
+
+
+def claims(differences: pd.DataFrame, verdicts: pd.DataFrame | None = None) -> dict[Key, str]:
+    """(case, metric, model_a, model_b) -> claim, model_a before model_b alphabetically (the pair's
+    claim turned with it). With ``verdicts`` (``verdict.csv``'s rows), also the pairs
+    ``model_differences.csv`` leaves out because a score is infinite: one infinite score, the finite
+    model better; both infinite, ``cannot_tell_apart``."""
+    out: dict[Key, str] = {}
+    for r in differences.itertuples(index=False):
+        _put(out, r.case, r.metric, r.model_a, r.model_b, r.claim)
+    if verdicts is not None and not verdicts.empty:
+        values = pd.to_numeric(verdicts["value"], errors="coerce")
+        scored = verdicts[values.notna() & (verdicts["verdict"] != "no_prediction")].assign(score=values)
+        for (case, metric), frame in scored.groupby(["case", "metric"], sort=True):
+            rows = dict(zip(frame["model"], frame["score"].astype(float)))
+            for a, b in itertools.combinations(sorted(rows), 2):
+                ia, ib = math.isinf(rows[a]), math.isinf(rows[b])
+                if not (ia or ib) or (case, metric, a, b) in out:
+                    continue
+                _put(out, case, metric, a, b, "cannot_tell_apart" if ia and ib else ("b_better" if ia else "a_better"))
+    return out
+
+
+def compare_claims(full: dict[Key, str], variant: dict[Key, str]) -> dict[Key, tuple[str, str | None, bool]]:
+    """Key -> (status, the variant's claim or None, unscored) for every pair of a (case, metric) the
+    full root judged (module docstring). A pair the full root did not score is taken as
+    ``cannot_tell_apart`` there; one the variant does not score as not told apart."""
+    judged = {(k[0], k[1]) for k in full}
+    out = {}
+    for key in sorted(set(full) | {k for k in variant if (k[0], k[1]) in judged}):
+        f = full.get(key, "cannot_tell_apart")
+        v = variant.get(key)
+        if f in TOLD_APART:
+            status = "confirmed" if v == f else ("contradicted" if v in TOLD_APART else "lost")
+        else:
+            status = "new" if v in TOLD_APART else "still_cannot_tell_apart"
+        out[key] = (status, v, v is None)
+    return out
+
+
+def count_claims(full: dict[Key, str], variant: dict[Key, str], case: str) -> dict[str, int]:
+    """The counts of one case: each status, ``unscored``, ``pairs`` and ``claims_full`` (the pairs the
+    full root tells apart)."""
+    full_case = {k: v for k, v in full.items() if k[0] == case}
+    compared = compare_claims(full_case, {k: v for k, v in variant.items() if k[0] == case})
+    counts = {s: 0 for s in STATUSES}
+    for status, _, _ in compared.values():
+        counts[status] += 1
+    counts["unscored"] = sum(1 for status, _, missing in compared.values() if missing and status == "lost")
+    counts["pairs"] = len(compared)
+    counts["claims_full"] = sum(1 for v in full_case.values() if v in TOLD_APART)
+    return counts
+
+
+# -------------------------------------------------------------------------------- snapshots
+def prefix_count(n: int, fraction: float, minimum: int = MIN_SNAPSHOTS) -> int:
+    """How many of a production's ``n`` snapshots its first ``fraction`` keeps: ``ceil(fraction n)``
+    (at least the fraction), never fewer than ``minimum`` nor more than ``n``."""
+    if not 0.0 < fraction <= 1.0:
+        raise ValueError(f"fraction {fraction}: expected 0 < fraction <= 1")
+    if n < minimum:
+        raise ValueError(f"{n} snapshots: a prefix needs at least {minimum}")
+    return int(min(n, max(minimum, math.ceil(fraction * n - 1e-9))))
+
+
+def production_indices(timesteps: np.ndarray, run: dict[str, Any]) -> np.ndarray:
+    """Indices of the snapshots inside the run's steady-state window, the fields' window (the rule
+    of :func:`pipeline.coarse_graining.fields.steady_snapshots`, half a time step of slack)."""
+    t0, t1 = run["steady_state_window"]
+    dt = float(run["time_step"])
+    times = np.asarray(timesteps, dtype=float) * dt
+    return np.nonzero((times >= t0 - 0.5 * dt) & (times <= t1 + 0.5 * dt))[0]
+
+
+@dataclass(frozen=True)
+class Prefix:
+    """A prefix of one run's production: its window (s), the snapshots kept and the production's."""
+
+    window: tuple[float, float]
+    kept: int
+    total: int
+
+    @property
+    def kept_fraction(self) -> float:
+        return self.kept / self.total
+
+
+def prefix_of(timesteps: np.ndarray, run: dict[str, Any], fraction: float) -> Prefix:
+    """The window of the first ``fraction`` of a run's production snapshots (:func:`prefix_count`):
+    from the window's start to the last kept snapshot's time."""
+    chosen = production_indices(timesteps, run)
+    if chosen.size < MIN_SNAPSHOTS:
+        raise ValueError(f"{run.get('case')}/{run.get('run')}: {chosen.size} snapshots in the steady window")
+    keep = prefix_count(int(chosen.size), fraction)
+    t0, t1 = (float(t) for t in run["steady_state_window"])
+    # Every snapshot kept: the run's own window (its wall series run past the last snapshot).
+    t_end = t1 if keep == chosen.size else float(timesteps[chosen[keep - 1]]) * float(run["time_step"])
+    return Prefix((t0, t_end), keep, int(chosen.size))
+
+
+def prefix_record(run: dict[str, Any], prefix: Prefix, fraction: float) -> dict[str, Any]:
+    """``run.json`` of a run cut to ``prefix``: its steady-state and production windows end at the
+    last kept snapshot (the fields and the wall's series are read over it), ``claims_cost`` says so."""
+    out = json.loads(json.dumps(run))
+    out["steady_state_window"] = [prefix.window[0], prefix.window[1]]
+    production = run.get("production_window", run["steady_state_window"])
+    out["production_window"] = [float(production[0]), prefix.window[1] if prefix.kept < prefix.total else float(production[1])]
+    out["claims_cost"] = {"fraction": fraction, "snapshots_kept": prefix.kept, "snapshots_production": prefix.total,
+                          "window_full": run["steady_state_window"], "note": "prefix of the production: "
+                          "pipeline.scoring.claims_cost, not a DEM run of its own"}
+    return out
+
+
+def store_timesteps(run_dir: Path, run: dict[str, Any]) -> np.ndarray:
+    """The particle snapshots' time steps, from ``dumps.nc`` alone where it exists."""
+    from pipeline.dumps.store import STORE_NAME
+
+    store = Path(run_dir) / STORE_NAME
+    if store.is_file():
+        import netCDF4
+
+        with netCDF4.Dataset(store, "r") as ds:
+            return np.asarray(ds["particle_timestep"][:], dtype=np.int64)
+    from pipeline.coarse_graining.fields import load_tables
+
+    return load_tables(Path(run_dir), run)[0].timesteps
+
+
+# ------------------------------------------------------------------------------------- cost
+@dataclass(frozen=True)
+class RunCost:
+    """What one DEM run cost (core-seconds: LIGGGHTS wall seconds x MPI ranks; particle-steps)."""
+
+    case: str
+    run: str
+    replica: int
+    fixed_core_seconds: float  # fill and shear to steady state: paid whatever the production
+    production_core_seconds: float
+    fixed_particle_steps: float
+    production_particle_steps: float
+    window_share: float  # of the production, the steady-state test's window it begins with
+    shared: str | None = None  # the shared fill or sheared bed it started from (dem/<case>/<shared>/fill.json)
+
+
+def replica_of(run: str) -> int:
+    """The replica index k of a run id ending in ``r<k>``."""
+    match = re.search(r"(?:^|-)r(\d+)$", run)
+    if not match:
+        raise ValueError(f"run {run!r}: no replica suffix r<k>")
+    return int(match.group(1))
+
+
+def run_cost(record: dict[str, Any]) -> RunCost:
+    """A run's cost from its ``run.json`` (``wall_seconds_by_stage``, ``steps_by_stage``, ``mpi_ranks``)."""
+    ranks = float(record.get("mpi_ranks", 1))
+    seconds = record.get("wall_seconds_by_stage") or {}
+    steps = record.get("steps_by_stage") or {}
+    n = float(record["particle_count"])
+    chunks = int(record.get("production_chunks", 0) or 0)
+    window = int(record.get("production_chunks_from_steady_window", 0) or 0)
+    shared = (record.get("shared_fill") or {}).get("run")
+    return RunCost(str(record["case"]), str(record["run"]), replica_of(str(record["run"])),
+                   ranks * sum(float(v) for k, v in seconds.items() if k != "production"),
+                   ranks * float(seconds.get("production", 0.0)),
+                   n * sum(float(v) for k, v in steps.items() if k != "production"),
+                   n * float(steps.get("production", 0)),
+                   window / chunks if chunks else 0.0, shared)
+
+
+def shared_cost(fill: dict[str, Any]) -> tuple[float, float]:
+    """(core-seconds, particle-steps) of a shared fill or sheared bed (its ``fill.json``)."""
+    ranks = float(fill.get("mpi_ranks", 1))
+    seconds = sum(float(v) for v in (fill.get("wall_seconds_by_stage") or {}).values())
+    steps = sum(float(v) for v in (fill.get("steps_by_stage") or {}).values())
+    return ranks * seconds, float(fill.get("particle_count", 0)) * steps
+
+
+@dataclass(frozen=True)
+class Cost:
+    core_hours: float
+    core_hours_with_window: float
+    particle_steps: float
+
+
+def variant_cost(costs: Iterable[RunCost], kept: dict[str, float], shared: dict[str, tuple[float, float]]) -> Cost:
+    """The DEM of the runs in ``kept`` (run -> fraction of its production kept): fill and shear in
+    full, the production scaled; each shared fill or bed the kept runs started from once (``shared``:
+    name -> (core-seconds, particle-steps), from :func:`shared_cost`)."""
+    seconds = seconds_window = steps = 0.0
+    fills = set()
+    for c in costs:
+        if c.run not in kept:
+            continue
+        f = float(kept[c.run])
+        seconds += c.fixed_core_seconds + f * c.production_core_seconds
+        seconds_window += c.fixed_core_seconds + max(f, c.window_share) * c.production_core_seconds
+        steps += c.fixed_particle_steps + f * c.production_particle_steps
+        if c.shared:
+            fills.add(c.shared)
+    for name in fills:
+        s, p = shared.get(name, (0.0, 0.0))
+        seconds += s
+        seconds_window += s
+        steps += p
+    return Cost(seconds / 3600.0, seconds_window / 3600.0, steps)
+
+
+# ----------------------------------------------------------------------------------- variants
+@dataclass(frozen=True)
+class Variant:
+    """Less DEM: the first ``fraction`` of every production, and the replicas ``replicas`` (None: all)."""
+
+    fraction: float = 1.0
+    replicas: tuple[int, ...] | None = None
+
+    @property
+    def name(self) -> str:
+        parts = []
+        if self.fraction < 1.0:
+            parts.append(f"prefix {fraction_label(self.fraction)}")
+        if self.replicas is not None:
+            parts.append("replicas " + "+".join(f"r{k}" for k in self.replicas))
+        return ", ".join(parts) or "full"
+
+    @property
+    def tag(self) -> str:
+        return f"f{self.fraction:g}"
+
+    def kept(self, replicas: list[int]) -> list[int] | None:
+        """The case's replicas this variant keeps (None where it is no variant of the case: it keeps
+        them all at the whole production, or none)."""
+        keep = [k for k in replicas if self.replicas is None or k in self.replicas]
+        if not keep:
+            return None
+        if self.replicas is not None and len(keep) == len(replicas) and self.fraction >= 1.0:
+            return None
+        return keep
+
+
+def fraction_label(fraction: float) -> str:
+    f = Fraction(fraction).limit_denominator(64)
+    return f"{f.numerator}/{f.denominator}" if f.denominator > 1 else f"{f.numerator}"
+
+
+def replica_subsets(n: int, min_replicas: int = 1) -> list[tuple[int, ...]]:
+    """Replica subsets of a case of ``n``: each one left out in turn, then the first m for m from
+    n - 2 down to ``min_replicas``."""
+    if n < 2:
+        return []
+    every = list(range(1, n + 1))
+    subsets = [tuple(k for k in every if k != out) for out in every] if n - 1 >= min_replicas else []
+    subsets += [tuple(range(1, m + 1)) for m in range(n - 2, max(min_replicas, 1) - 1, -1)]
+    return subsets
+
+
+def variants(fractions: Iterable[float], max_replicas: int, min_replicas: int = 1, combine: bool = False) -> list[Variant]:
+    """``full``, the prefixes, the replica subsets and with ``combine`` every prefix of every subset."""
+    fractions = [float(f) for f in fractions if float(f) < 1.0]
+    subsets = replica_subsets(max_replicas, min_replicas)
+    out = [Variant()] + [Variant(f) for f in sorted(fractions)] + [Variant(1.0, s) for s in subsets]
+    if combine:
+        out += [Variant(f, s) for f in sorted(fractions) for s in subsets]
+    return out
+
+
+# ------------------------------------------------------------------------------ the root read
+@dataclass
+class Root:
+    """What the variants read of a finished output root."""
+
+    path: Path
+    config: dict[str, Any]
+    params: dict[str, Any]
+    held_out: list[str]
+    full: dict[Key, str]
+    records: dict[tuple[str, str], dict[str, Any]] = field(default_factory=dict)
+
+    @classmethod
+    def read(cls, path: Path) -> Root:
+        path = Path(path)
+        config_path = path / "config.effective.json"
+        differences_path = path / "validation" / "model_differences.csv"
+        for need in (config_path, differences_path, path / "calibration" / "params.json"):
+            if not need.is_file():
+                raise FileNotFoundError(f"{need}: not there (is {path} a finished output root?)")
+        config = json.loads(config_path.read_text())
+        params = json.loads((path / "calibration" / "params.json").read_text())
+        differences = pd.read_csv(differences_path)
+        verdict_path = path / "validation" / "verdict.csv"
+        verdicts = pd.read_csv(verdict_path) if verdict_path.is_file() else None
+        full = claims(differences, verdicts)
+        held = sorted({k[0] for k in full} | (set(verdicts.case) if verdicts is not None else set()))
+        root = cls(path, config, params, held, full)
+        for case, run in dem_runs(config):
+            record = path / "dem" / case / run / "run.json"
+            if case in held and size_study_cell(run) is None and record.is_file():
+                root.records[(case, run)] = json.loads(record.read_text())
+        return root
+
+    def moved(self, p: str | Path) -> Path:
+        """A layout path (under the config's output_root) under this root."""
+        return self.path / Path(p).relative_to(layout.root(self.config))
+
+    def runs(self, case: str) -> list[str]:
+        return [run for (c, run) in self.records if c == case]
+
+    def is_intruder(self, case: str) -> bool:
+        return self.config["cases"][case]["geometry"] == "intruder"
+
+    def replicas(self, case: str) -> list[int]:
+        return sorted({replica_of(r) for r in self.runs(case)})
+
+    def settings(self):
+        from pipeline.scoring.scores import ScoringSettings
+
+        return ScoringSettings.from_config(self.config)
+
+    def costs(self, case: str) -> tuple[list[RunCost], dict[str, tuple[float, float]]]:
+        costs = [run_cost(self.records[(case, r)]) for r in self.runs(case)]
+        shared = {}
+        for c in costs:
+            fill = self.path / "dem" / case / str(c.shared) / "fill.json"
+            if c.shared and fill.is_file():
+                shared[c.shared] = shared_cost(json.loads(fill.read_text()))
+            elif c.shared:  # the run's own record of the fill (no bed's shear in it)
+                record = self.records[(case, c.run)]["shared_fill"]
+                ranks = float(self.records[(case, c.run)].get("mpi_ranks", 1))
+                shared[c.shared] = (ranks * float(record.get("wall_seconds", 0.0)),
+                                    float(self.records[(case, c.run)]["particle_count"]) * float(record.get("steps", 0)))
+        return costs, shared
+
+
+# --------------------------------------------------------------------------- variant fields
+def _link(source: Path, dest: Path) -> None:
+    if dest.is_symlink() or dest.exists():
+        if dest.is_symlink() and os.readlink(dest) == str(source):
+            return
+        dest.unlink()
+    dest.symlink_to(source)
+
+
+def prefix_fields(root: Root, case: str, run: str, fraction: float, fresh: bool = False) -> tuple[Path, Prefix]:
+    """The fields of one run's production prefix (module docstring), on the root fields' z; reused
+    when a previous call wrote them from the same dumps."""
+    from pipeline.coarse_graining import fields as cg
+    from pipeline.coarse_graining.coarse_grain import write_netcdf
+
+    source = root.path / "dem" / case / run
+    record = root.records[(case, run)]
+    prefix = prefix_of(store_timesteps(source, record), record, fraction)
+    tag = Variant(fraction).tag
+    out = root.path / "claims_cost" / "fields" / tag / case / f"{run}.nc"
+    newest = max(p.stat().st_mtime for p in (source / "run.json", source / "dumps.nc") if p.exists())
+    if out.is_file() and not fresh and out.stat().st_mtime >= newest:
+        with xr.open_dataset(out) as done:
+            if math.isclose(float(done.attrs.get(FRACTION_ATTR, math.nan)), fraction) and \
+                    int(done.attrs.get("number_of_snapshots", -1)) == prefix.kept:
+                return out, prefix
+    scratch = root.path / "claims_cost" / "dem" / tag / case / run
+    scratch.mkdir(parents=True, exist_ok=True)
+    atomic.write_json(prefix_record(record, prefix, fraction), scratch / "run.json")
+    for name in ("dumps.nc", "series", "dumps"):
+        if (source / name).exists():
+            _link((source / name).resolve(), scratch / name)
+    with xr.open_dataset(root.path / "fields" / case / f"{run}.nc") as ref:
+        z = np.array(ref.z.values, dtype=float)
+    # run_fields makes its profile grid from the kept snapshots' wall heights; the models are on
+    # the root fields' nodes, so the variant is evaluated there (the grid is where, not what, it averages).
+    result, _ = cg.run_fields(root.config, scratch, checks=False, z=z)
+    ds = result.dataset
+    if int(ds.attrs.get("number_of_snapshots", prefix.kept)) != prefix.kept:
+        raise ValueError(f"{case}/{run}: {ds.attrs.get('number_of_snapshots')} snapshots averaged, {prefix.kept} meant")
+    ds.attrs.update({FRACTION_ATTR: fraction, "claims_cost_snapshots_production": prefix.total,
+                     "claims_cost_note": f"first {prefix.kept} of the production's {prefix.total} snapshots "
+                                         f"(pipeline.scoring.claims_cost); the root's fields are the whole production"})
+    write_netcdf(ds, out)
+    return out, prefix
+
+
+def reframe(ds: xr.Dataset, ref: xr.Dataset) -> xr.Dataset:
+    """``ds`` on ``ref``'s z, placed by its depth below its own top contact plane (as
+    :func:`pipeline.scoring.replicas.align_replicas`), its heights (:data:`Z_ATTRS`) moved with it."""
+    shift = top_plane(ref) - top_plane(ds)
+    moved = ds.assign_coords(z=ds.z.values + shift).interp(z=ref.z.values).assign_attrs(ds.attrs)
+    for name in Z_ATTRS:
+        if name in ds.attrs:
+            moved.attrs[name] = float(ds.attrs[name]) + shift
+    return moved
+
+
+def first_on_model_grid(files: list[Path], reference: Path, scratch: Path) -> list[Path]:
+    """``files`` with the first one on ``reference``'s z (the models' nodes): as it is where its z is
+    that already, else re-framed (:func:`reframe`) into ``scratch``."""
+    with xr.open_dataset(files[0]) as first, xr.open_dataset(reference) as ref:
+        if first.sizes["z"] == ref.sizes["z"] and np.allclose(first.z.values, ref.z.values):
+            return files
+        moved = reframe(first.load(), ref.load())
+    from pipeline.coarse_graining.coarse_grain import write_netcdf
+
+    out = scratch / f"{files[0].stem}.on_{reference.stem}.nc"
+    write_netcdf(moved, out)
+    return [out] + files[1:]
+
+
+# --------------------------------------------------------------------------------- the rods
+def rod_series(run_dir: Path) -> pd.DataFrame:
+    """A rod's position series over every committed chunk (``series/intruder_<stage>.txt``), x unwrapped."""
+    from pipeline.dem.intruder_run import read_intruder_series, unwrap
+
+    # As IntruderRun.intruder_series reads it (chunks in their order, no sample dropped), so the
+    # whole production gives run.json's speed again.
+    state = json.loads((run_dir / "state.json").read_text())
+    record = json.loads((run_dir / "run.json").read_text())
+    paths = [run_dir / "series" / f"intruder_{c['stage']}.txt" for c in state["chunks"]]
+    frames = [read_intruder_series(path) for path in paths if path.exists()]
+    data = pd.concat(frames, ignore_index=True)
+    data["x"] = unwrap(data["x"].to_numpy(), float(record["cell"][0]))
+    return data
+
+
+def prefix_rod(record: dict[str, Any], series: pd.DataFrame, fraction: float, rest_speed: float) -> tuple[dict[str, Any], str]:
+    """The run's record with the rod's ``speed``, ``speed_err`` and ``arrested`` over the first
+    ``fraction`` of its production window, and a note: where the prefix holds fewer than 3 samples
+    per block of the usual :data:`~pipeline.dem.rod_speed.SPEED_BLOCKS`, fewer blocks (at least 2);
+    with fewer than 6 samples the record unchanged and a note ending "left out" (the caller drops
+    the run)."""
+    from pipeline.dem.rod_speed import SPEED_BLOCKS, creep_speed
+
+    t0, t1 = record["production_window"]
+    t_end = t0 + fraction * (t1 - t0)
+    part = series[(series["time"] >= t0) & (series["time"] <= t_end)]
+    n = len(part)
+    blocks = min(SPEED_BLOCKS, n // 3)
+    out = json.loads(json.dumps(record))
+    if blocks < 2:
+        return out, f"{record['run']}: {n} rod samples in the prefix, too few: left out"
+    t, x = part["time"].to_numpy(), part["x"].to_numpy()
+    creep = creep_speed(t, x, blocks, rest_speed)
+    rod = out["intruder"]
+    if rod.get("speed_over_wall_speed") is not None and rod.get("speed"):
+        rod["speed_over_wall_speed"] = float(rod["speed_over_wall_speed"]) * creep.speed / float(rod["speed"])
+    rod.update({"speed": creep.speed, "speed_err": creep.speed_err, "arrested": bool(creep.arrested),
+                "displacement": creep.displacement, "window": [t0, t_end], "speed_blocks": blocks})
+    if "halves" in rod or "steadiness" in rod:
+        # As IntruderRun._record: the prefix's halves, the rod's travel over it and whether it is
+        # steady (issue 55: the depth sweep's score takes the steady rods only).
+        from pipeline.dem.rod_speed import production_halves
+        from pipeline.scoring.rod_steadiness import classify, split_durations
+
+        halves = production_halves(t, x, rest_speed)
+        if halves is not None:
+            halves["first_duration"], halves["second_duration"] = split_durations(t)
+        rod["halves"] = halves
+        steadiness = classify(out)
+        rod.update({k: steadiness[k] for k in ("travel_over_d", "travel_first_half_over_d", "travel_second_half_over_d",
+                                               "travel_source") if k in steadiness})
+        rod["steadiness"] = {k: steadiness.get(k) for k in ("steady", "rod_class", "reason", "halves_z_normal")}
+    note = f"{record['run']}: {blocks} blocks of {n} samples" if blocks < SPEED_BLOCKS else ""
+    return out, note
+
+
+# ---------------------------------------------------------------------------------- scoring
+def judge_case(frames: list[pd.DataFrame], samples: dict, confidence: float) -> dict[Key, str]:
+    """The claims of scored rows (every row held out) and their resamples."""
+    frames = [f for f in frames if not f.empty]
+    if not frames:
+        return {}
+    scores = pd.concat(frames, ignore_index=True)
+    scores["role"] = "held_out"
+    outcome = verdict.judge(scores, samples, confidence)
+    return claims(outcome.differences, outcome.verdicts)
+
+
+def score_planar(root: Root, case: str, field_files: list[Path]) -> dict[Key, str]:
+    from pipeline.scoring.scores import score_case
+
+    models = {Path(p).stem: root.moved(p) for p in layout.model_paths(root.config) if Path(p).parent.name == case}
+    models = {m: p for m, p in models.items() if p.is_file()}
+    draws = {Path(p).stem: root.moved(p) for p in layout.model_draw_paths(root.config) if Path(p).parent.name == case}
+    draws = {m: p for m, p in draws.items() if p.is_file() and m in models}
+    settings = root.settings()
+    frame, samples = score_case(case, field_files, models, root.params, draws, settings)
+    return judge_case([frame], samples, settings.confidence)
+
+
+def score_rods(root: Root, case: str, records: list[dict[str, Any]]) -> dict[Key, str]:
+    from pipeline.scoring.force_sweep import score_force_sweep
+    from pipeline.scoring.intruder_scores import score_intruder
+    from pipeline.scoring.scores import COLUMNS as SCORE_COLUMNS
+
+    files = {Path(p).stem: root.moved(p) for p in layout.intruder_model_paths(root.config) if Path(p).parent.name == case}
+    files = {m: p for m, p in files.items() if p.is_file()}
+    ens = {Path(p).stem: root.moved(p) for p in layout.intruder_model_draw_paths(root.config) if Path(p).parent.name == case}
+    ens = {m: p for m, p in ens.items() if p.is_file() and m in files}
+    settings = root.settings()
+    rows, samples = score_intruder(records, files, ens, settings)
+    frames = [pd.DataFrame(rows, columns=SCORE_COLUMNS)]
+    sweep_rows, extra, _ = score_force_sweep(records, files, ens, settings)
+    if sweep_rows:
+        frames.append(pd.DataFrame(sweep_rows, columns=SCORE_COLUMNS))
+        samples |= extra
+    # score_intruder names its case "intruder"; a differently named intruder case is its own.
+    out = judge_case(frames, samples, settings.confidence)
+    return {(case, *k[1:]): v for k, v in out.items()}
+
+
+@dataclass
+class Outcome:
+    row: dict[str, Any]
+    pairs: list[dict[str, Any]]
+
+
+#: Metrics the variants do not rescore: the intruder's fields (the x-z fields would be coarse-grained
+#: again over the prefix); their claims are left out of every row's counts, and the notes say so.
+NOT_RESCORED = ("intruder_field_",)
+
+
+def rescored(claims_of: dict[Key, str], case: str) -> dict[Key, str]:
+    """The claims of one case on the metrics the variants rescore."""
+    return {k: v for k, v in claims_of.items() if k[0] == case and not k[1].startswith(NOT_RESCORED)}
+
+
+def run_variant(root: Root, case: str, variant: Variant, fresh: bool = False) -> Outcome | None:
+    """Score and judge one case under one variant; None where it is no variant of the case."""
+    keep = variant.kept(root.replicas(case))
+    if keep is None:
+        return None
+    runs = [r for r in root.runs(case) if replica_of(r) in keep]
+    notes = [MODELS_FIXED]
+    kept_fraction: dict[str, float] = {}
+    started = time.perf_counter()
+    try:
+        if root.is_intruder(case):
+            from pipeline.dem.intruder_run import rest_speed_of
+
+            records = []
+            for run in runs:
+                record = root.records[(case, run)]
+                if variant.fraction < 1.0:
+                    record, note = prefix_rod(record, rod_series(root.path / "dem" / case / run), variant.fraction,
+                                              rest_speed_of(root.config, case))
+                    if note.endswith("left out"):
+                        notes.append(note)
+                        continue
+                    if note:
+                        notes.append(note)
+                kept_fraction[run] = variant.fraction
+                records.append(record)
+            if variant.fraction < 1.0:
+                notes.append("rods' speeds over the prefix of their production window; depths as the whole production's")
+            found = score_rods(root, case, records)
+        else:
+            files = []
+            for run in runs:
+                if variant.fraction < 1.0:
+                    path, prefix = prefix_fields(root, case, run, variant.fraction, fresh)
+                    kept_fraction[run] = prefix.kept_fraction
+                else:
+                    path = root.path / "fields" / case / f"{run}.nc"
+                    kept_fraction[run] = 1.0
+                files.append(path)
+            scratch = root.path / "claims_cost" / "fields" / variant.tag / case
+            scratch.mkdir(parents=True, exist_ok=True)
+            # The models are on the nodes of the first of the root's fields files (sorted, as the scoring reads them).
+            reference = sorted(root.path / "fields" / case / f"{r}.nc" for r in root.runs(case))[0]
+            found = score_planar(root, case, first_on_model_grid(files, reference, scratch))
+    except (MetricError, ValueError) as exc:
+        notes.append(f"not scored: {exc}")
+        found = {}
+    if len(keep) == 1 < len(root.replicas(case)):
+        notes.append("one replica: u_dem from its stated errors alone (no replica scatter, no offset term, the points "
+                     "taken as uncorrelated), so narrower intervals than the full root's")
+    full = rescored(root.full, case)
+    if len(full) < sum(1 for k in root.full if k[0] == case):
+        notes.append("the intruder's field scores are not rescored: their claims are left out")
+    counts = count_claims(full, found, case)
+    costs, shared = root.costs(case)
+    # Every kept run paid its prefix, scored or not (a rod left out of a short prefix still ran).
+    cost = variant_cost(costs, {r: kept_fraction.get(r, variant.fraction) for r in runs}, shared)
+    full_cost = variant_cost(costs, {r: 1.0 for r in root.runs(case)}, shared)
+    fractions = sorted(set(round(v, 4) for v in kept_fraction.values()))
+    if variant.fraction < 1.0 and fractions and not root.is_intruder(case):
+        notes.append("production kept: " + ", ".join(f"{v:g}" for v in fractions) + " of the snapshots")
+    notes.append(f"{time.perf_counter() - started:.1f} s")
+    row = {"case": case, "variant": variant.name, "fraction": variant.fraction, "replicas": len(keep),
+           "dem_core_hours": cost.core_hours, **counts, "dem_core_hours_full": full_cost.core_hours,
+           "dem_core_hours_with_window": cost.core_hours_with_window, "particle_steps": cost.particle_steps,
+           "runs": " ".join(runs), "notes": "; ".join(notes)}
+    pairs = [{"case": case, "variant": variant.name, "metric": k[1], "model_a": k[2], "model_b": k[3],
+              "claim_full": full.get(k, "not scored"), "claim_variant": v or "not scored", "status": status}
+             for k, (status, v, _) in compare_claims(full, {k: v for k, v in found.items() if k[0] == case}).items()]
+    return Outcome(row, pairs)
+
+
+def claims_cost(root_path: Path, fractions: Iterable[float] = FRACTIONS, min_replicas: int = 1, combine: bool = False,
+                cases: list[str] | None = None, fresh: bool = False, log=print) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Every (case, variant) row and every compared pair of a root (module docstring)."""
+    root = Root.read(root_path)
+    rows, pairs = [], []
+    for case in root.held_out:
+        if cases and case not in cases:
+            continue
+        if not root.runs(case):
+            log(f"{case}: no finished DEM runs under {root.path / 'dem' / case}: left out")
+            continue
+        n = len(root.replicas(case))
+        for v in variants(fractions, n, min_replicas, combine):
+            outcome = run_variant(root, case, v, fresh)
+            if outcome is None:
+                continue
+            log(f"{case:<22} {v.name:<28} confirmed {outcome.row['confirmed']:>3} lost {outcome.row['lost']:>3} "
+                f"contradicted {outcome.row['contradicted']:>2} new {outcome.row['new']:>2} of {outcome.row['claims_full']:>3}"
+                f"  {outcome.row['dem_core_hours']:.4g} core-h")
+            rows.append(outcome.row)
+            pairs += outcome.pairs
+    return pd.DataFrame(rows, columns=COLUMNS), pd.DataFrame(pairs, columns=PAIR_COLUMNS)
+
+
+# ----------------------------------------------------------------------------------- figure
+def claims_figure(table: pd.DataFrame):
+    """Per case: the claims each variant confirms (filled), contradicts (red crosses) and adds (open)
+    against its DEM core-hours; the full root's claims dashed. Circles: prefixes of the production;
+    squares: fewer replicas; diamonds: both; star: the full root."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    cases = sorted(table.case.unique())
+    fig, axes = plt.subplots(1, max(1, len(cases)), figsize=(4.6 * max(1, len(cases)), 3.9), squeeze=False)
+    for ax, case in zip(axes[0], cases):
+        sub = table[table.case == case]
+        full = int(sub.claims_full.max()) if len(sub) else 0
+        ax.axhline(full, color="k", ls="--", lw=0.8, label=f"told apart by the full root ({full})")
+        for r in sub.itertuples(index=False):
+            prefix, fewer = r.fraction < 1.0, r.replicas < sub.replicas.max() or "replicas" in r.variant
+            marker = "*" if r.variant == "full" else ("D" if prefix and fewer else ("o" if prefix else "s"))
+            ax.plot(r.dem_core_hours, r.confirmed, marker=marker, color="C0", ms=9 if marker == "*" else 6, ls="none")
+            if r.contradicted:
+                ax.plot(r.dem_core_hours, r.contradicted, marker="x", color="C3", ls="none")
+            if r.new:
+                ax.plot(r.dem_core_hours, r.new, marker=marker, mfc="none", color="C2", ls="none")
+            ax.annotate(r.variant.replace("prefix ", "").replace("replicas ", ""), (r.dem_core_hours, r.confirmed),
+                        fontsize=6, textcoords="offset points", xytext=(3, 3))
+        ax.plot([], [], "o", color="C0", label="confirmed: prefix of the production")
+        ax.plot([], [], "s", color="C0", label="confirmed: fewer replicas")
+        ax.plot([], [], "x", color="C3", label="contradicted")
+        ax.plot([], [], "o", mfc="none", color="C2", label="new")
+        # From zero: the distance to the full root's point is the DEM a variant saves.
+        ax.set_xlim(0.0, 1.08 * float(sub.dem_core_hours.max()) if len(sub) else 1.0)
+        ax.set_ylim(bottom=-0.5, top=max(full, int(sub.confirmed.max()) if len(sub) else 0) * 1.12 + 1)
+        ax.set_title(case, fontsize=9)
+        ax.set_xlabel("DEM of the case (core-hours)")
+        ax.legend(fontsize=6, loc="best")
+    axes[0][0].set_ylabel("pairs of models told apart at 95 % (claims)")
+    fig.tight_layout()
+    return fig
+
+
+# ------------------------------------------------------------------------------------- main
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description="The claims of model_differences.csv with less DEM, against its cost.")
+    parser.add_argument("--root", type=Path, required=True, help="a finished output root (validation/model_differences.csv)")
+    parser.add_argument("--out", type=Path, required=True, help="the table, e.g. ROOT/validation/claims_cost.csv")
+    parser.add_argument("--figure", type=Path, help="the chart, e.g. ROOT/figures/claims_cost.png")
+    parser.add_argument("--pairs-out", type=Path, help="every compared pair (default: <out>_pairs.csv beside --out)")
+    parser.add_argument("--fractions", type=float, nargs="+", default=list(FRACTIONS),
+                        help="fractions of every production kept (default 1/8 1/4 1/2)")
+    parser.add_argument("--min-replicas", type=positive_int, default=1, help="fewest replicas a subset keeps (default 1)")
+    parser.add_argument("--combine", action="store_true", help="also every prefix of every replica subset")
+    parser.add_argument("--cases", nargs="+", help="only these held-out cases")
+    parser.add_argument("--fresh", action="store_true", help="coarse-grain the prefixes again even where done")
+    args = parser.parse_args(argv)
+    for f in args.fractions:
+        if not 0.0 < f <= 1.0:
+            parser.error(f"--fractions {f}: expected 0 < fraction <= 1")
+    table, pairs = claims_cost(args.root, args.fractions, args.min_replicas, args.combine, args.cases, args.fresh)
+    atomic.write_csv(table, args.out)
+    atomic.write_csv(pairs, args.pairs_out or args.out.with_name(f"{args.out.stem}_pairs.csv"))
+    if args.figure is not None:
+        import matplotlib.pyplot as plt
+
+        fig = claims_figure(table)
+        args.figure.parent.mkdir(parents=True, exist_ok=True)
+        fig.savefig(args.figure, dpi=110, bbox_inches="tight")
+        plt.close(fig)
+    with pd.option_context("display.width", 200, "display.max_columns", 20):
+        print(table.drop(columns=["runs", "notes"]).to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
