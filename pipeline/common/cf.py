@@ -41,6 +41,7 @@ ATTRIBUTE_UNITS = {
     "I_max_calibrated": "1", "nu_structure_alpha": "1", "u_x_disp_structure_alpha": "1", "outside_calibrated_range": "1", "normal_stress_ratio": "1", "cells_per_d": "1",
     "wall_friction": "1", "wall_friction_err": "1", "half_window_split_time": "s", "half_window_blocks": "1", "n_grid_refined": "1", "n_draws": "1",
     "n_solved": "1", "draws_seed": "1", "cells_per_d_refined": "1",
+    "slip_length": "m", "top_wall_slip": "m s-1", "wall_layer_over_d": "1", "wall_layer_offset_over_d": "1",
 }
 _DIMENSIONLESS_SUFFIXES = ("_over_d", "_over_p", "_over_err", "_ratio", "_residual", "_rel", "_chi2", "_fraction",
                            "_count", "_points")
@@ -51,10 +52,19 @@ BULK_UNITS = {"nu": "1", "p": "Pa", "mu": "1", "I": "1", "shear_rate": "s-1", "f
               "granular_temperature": "m2 s-2", "margin_over_d": "1"}
 
 
+#: Units of the wall's attributes ``wall_<top|bottom>_<quantity>`` (and ``_err``) of the fields files
+#: (pipeline/coarse_graining/wall.py).
+WALL_UNITS = {"slip": "m s-1", "first_layer_slip": "m s-1", "shear_rate": "s-1", "slip_length": "m",
+              "effective_plane": "m", "shear_stress": "Pa", "normal_stress": "Pa"}
+
+
 def attribute_units(name: str) -> str | None:
     """Units of a numeric global attribute, or None where none is known."""
     if name in ATTRIBUTE_UNITS:
         return ATTRIBUTE_UNITS[name]
+    for side in ("wall_top_", "wall_bottom_"):
+        if name.startswith(side) and name[len(side):].removesuffix("_err") in WALL_UNITS:
+            return WALL_UNITS[name[len(side):].removesuffix("_err")]
     if name.startswith("bulk_"):
         field = name[5:].removesuffix("_err")
         if field in BULK_UNITS:
