@@ -47,10 +47,17 @@ def run(command: list[str], log: Path) -> None:
         raise SystemExit(f"wall_before_after: {' '.join(command[:4])} ... failed (exit {done.returncode}); see {log}")
 
 
-def one_law(root: Path, out: Path, law: str, jobs: int) -> Path:
+def one_law(root: Path, out: Path, law: str, jobs: int, overrides: dict | None = None) -> Path:
+    """The planar post-DEM stages of ROOT's DEM into ``out`` with ``calibration.wall_slip`` = ``law``
+    and the config's top-level sections updated by ``overrides`` (section -> {key: value}, or a value)."""
     config = json.loads((root / "config.effective.json").read_text())
     config["output_root"] = str(out)
     config.setdefault("calibration", {})["wall_slip"] = law
+    for key, value in (overrides or {}).items():
+        if isinstance(value, dict):
+            config.setdefault(key, {}).update(value)
+        else:
+            config[key] = value
     out.mkdir(parents=True, exist_ok=True)
     cfg = out / "config.effective.json"
     cfg.write_text(json.dumps(config, indent=1))

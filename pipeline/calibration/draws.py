@@ -37,6 +37,7 @@ import numpy as np
 import continuum
 from pipeline.calibration.nonlocal_fit import NONLOCAL_PARAMETER, fit_length, mean_creep
 from pipeline.calibration.parameter_sets import CalibrationError, calibration_settings
+from pipeline.calibration.samplers import NormalSource, normal_source
 from pipeline.common import atomic
 from pipeline.common.config import derived_seed, load_config
 from pipeline.common.formats import open_fields
@@ -47,11 +48,11 @@ DEFAULT_DRAWS = 64
 MAX_REJECTIONS = 10_000
 
 
-def _normal(rng: np.random.Generator, cov_entry: dict[str, Any], means: dict[str, float]) -> dict[str, float]:
+def _normal(source: NormalSource, cov_entry: dict[str, Any], means: dict[str, float]) -> dict[str, float]:
     names = cov_entry["names"]
     mean = np.array([means[n] for n in names])
     cov = np.asarray(cov_entry["matrix"], dtype=float)
-    return dict(zip(names, map(float, rng.multivariate_normal(mean, cov, method="eigh"))))
+    return dict(zip(names, map(float, source.multivariate_normal(mean, cov))))
 
 
 def admissible(v: dict[str, float]) -> bool:
@@ -60,27 +61,29 @@ def admissible(v: dict[str, float]) -> bool:
             and 0.0 < v["nu_ref"] < 1.0 and 0.0 < v["sin_phi"] < 1.0)
 
 
-def draw_local(params: dict[str, Any], rng: np.random.Generator) -> tuple[dict[str, float], float, int]:
+def draw_local(params: dict[str, Any], source: NormalSource) -> tuple[dict[str, float], float, int]:
     """One draw of the local and critical-state values (flat, as :func:`parameter_sets.values`),
-    of sigma_zz / p, and the number of draws rejected before it."""
+    of sigma_zz / p, and the number of draws rejected before it (``source``: the normal deviates,
+    :mod:`pipeline.calibration.samplers`)."""
     nominal = {name: e["value"] for name, e in params["local"].items()}
     critical = {name: e["value"] for name, e in params["critical_state"].items()}
     cov = params["covariance"]
     stresses = params["normal_stresses"]
     ratio = stresses.get("models_sigma_zz_over_p", stresses["sigma_zz_over_p"])
     for rejected in range(MAX_REJECTIONS):
-        mu = _normal(rng, cov["mu_i"], nominal)
-        nu = _normal(rng, cov["nu_i"], nominal)
+        source.start_draw()
+        mu = _normal(source, cov["mu_i"], nominal)
+        nu = _normal(source, cov["nu_i"], nominal)
         cs_names = cov["critical_state"]["names"]
         # The line's block (nu_ref, kappa, a); sin_phi (row 0) is the drawn mu_s, p_ref is fixed.
         line = [n for n in cs_names if n in ("nu_ref", "kappa", "a")]
         index = [cs_names.index(n) for n in line]
         block = np.asarray(cov["critical_state"]["matrix"], dtype=float)[np.ix_(index, index)]
-        drawn_line = dict(zip(line, map(float, rng.multivariate_normal([critical[n] for n in line], block, method="eigh"))))
+        drawn_line = dict(zip(line, map(float, source.multivariate_normal(np.array([critical[n] for n in line]), block))))
         if cov["critical_state"].get("kappa_floored"):
             drawn_line["kappa"], drawn_line["nu_ref"] = critical["kappa"], nu["nu_c"]
         values = nominal | mu | nu | critical | drawn_line | {"sin_phi": mu["mu_s"]}
-        r = float(rng.normal(ratio["value"], ratio["error"]))
+        r = source.normal(ratio["value"], ratio["error"])
         if admissible(values) and 0.5 < r < 2.0:
             return values, r, rejected
     raise CalibrationError(f"no admissible parameter draw in {MAX_REJECTIONS} tries: the calibration's "
@@ -110,9 +113,10 @@ DRAW_BOUNDS = {"ngf": (0.01, 10.0), "cosserat": (0.05, 20.0), "volume_averaged":
 
 
 def draw_ensemble(params: dict[str, Any], nonlocal_paths: list[Path], settings: dict[str, Any], n_draws: int,
-                  seed: int) -> dict[str, Any]:
-    """The ``draws.json`` content: ``n_draws`` parameter sets (module docstring)."""
-    rng = np.random.default_rng(seed)
+                  seed: int, sampler: str = "random") -> dict[str, Any]:
+    """The ``draws.json`` content: ``n_draws`` parameter sets (module docstring), their normal
+    deviates from ``sampler`` (:mod:`pipeline.calibration.samplers`)."""
+    source = normal_source(sampler, seed, n_draws)
     # The wall's slip length from a stream of its own: the other values of every draw are those
     # drawn before the wall had one (issue 54), so the wall's share of u_input is its own.
     wall_rng = np.random.default_rng([seed, 54])
@@ -122,11 +126,11 @@ def draw_ensemble(params: dict[str, Any], nonlocal_paths: list[Path], settings: 
     failures: dict[str, int] = {}
     try:
         for k in range(n_draws):
-            values, ratio, rejected = draw_local(params, rng)
+            values, ratio, rejected = draw_local(params, source)
             rejected_total += rejected
             slip = max(0.0, float(wall_rng.normal(wall["value"], wall["error"]))) if wall["error"] > 0 else wall["value"]
             # Independent of the refit's outcome: the realisation factors are drawn first.
-            factors = {m: math.exp(float(rng.normal(0.0, relative_draw_error(params["nonlocal"][m][name]))))
+            factors = {m: math.exp(source.normal(0.0, relative_draw_error(params["nonlocal"][m][name])))
                        for m, name in NONLOCAL_PARAMETER.items() if m in params.get("nonlocal", {})}
             draw: dict[str, Any] = {"draw": k, "values": values, "sigma_zz_over_p": ratio, "slip_length": slip,
                                     "nonlocal": {}, "refit": {}, "failed": {}}
@@ -149,7 +153,7 @@ def draw_ensemble(params: dict[str, Any], nonlocal_paths: list[Path], settings: 
     finally:
         for ds in sets:
             ds.close()
-    return {"n_draws": n_draws, "seed": seed, "rejected": rejected_total, "refit_failures": failures,
+    return {"n_draws": n_draws, "seed": seed, "sampler": sampler, "rejected": rejected_total, "refit_failures": failures,
             "method": __doc__.split("\n\n", 1)[1].strip(), "draws": draws}
 
 
@@ -166,7 +170,7 @@ def main(argv: list[str] | None = None) -> int:
     params = json.loads(args.params.read_text())
     n_draws = int(settings.get("draws", DEFAULT_DRAWS))
     seed = derived_seed(int(config["seed"]), "calibration-draws")
-    ensemble = draw_ensemble(params, args.nonlocal_fields, settings, n_draws, seed)
+    ensemble = draw_ensemble(params, args.nonlocal_fields, settings, n_draws, seed, settings.get("draw_sampler", "random"))
     ensemble["provenance"] = provenance(config)
     atomic.write_json(ensemble, args.out)
     print(f"{n_draws} draws (seed {seed}), {ensemble['rejected']} rejected outside the laws' domain, "
