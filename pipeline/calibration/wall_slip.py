@@ -125,7 +125,14 @@ def calibrate_wall(source: str, rheometer_files: Sequence[Path], states: list[di
         state["used"] = bool(math.isfinite(state["slip_length"]) and state["slip_length_err"] > 0
                              and state["I"] >= MIN_INERTIAL and state["I_spread_over_I"] <= MAX_SPREAD)
     good = [s for s in per_state if s["used"]]
-    rheometer = scatter_mean(np.array([s["slip_length"] for s in good]), np.array([s["slip_length_err"] for s in good]))
+    try:
+        rheometer = scatter_mean(np.array([s["slip_length"] for s in good]), np.array([s["slip_length_err"] for s in good]))
+    except CalibrationError as exc:
+        if source == "rheometer":
+            raise
+        # another source was chosen: the rheometer's measurement is recorded as not made, with why
+        rheometer = {"value": math.nan, "error": math.nan, "chi2_reduced": math.nan, "dof": len(good) - 1,
+                     "n_runs": len(good), "not_measured": str(exc)}
     rheometer |= {"states": per_state, "inertial_trend": inertial_trend(good),
                   "method": (f"equal-weight mean of (s_top + s_bottom) / (2 gammadot_bulk) over the rheometer runs with "
                              f"I >= {MIN_INERTIAL} and a bulk I spread under {MAX_SPREAD} I; error from their scatter")}

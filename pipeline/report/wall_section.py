@@ -28,8 +28,9 @@ def slip_figure(params: dict[str, Any]):
     ax.errorbar(states["I"], states["slip_length"] / d, yerr=states["slip_length_err"] / d, fmt="o",
                 label="rheometer runs: (s_top + s_bottom) / (2 gammadot)")
     rheo = wall["rheometer"]
-    ax.axhspan((rheo["value"] - rheo["error"]) / d, (rheo["value"] + rheo["error"]) / d, color="C0", alpha=0.2,
-               label=f"rheometer mean {rheo['value'] / d:.3f} +- {rheo['error'] / d:.3f} d")
+    if math.isfinite(rheo["value"]):
+        ax.axhspan((rheo["value"] - rheo["error"]) / d, (rheo["value"] + rheo["error"]) / d, color="C0", alpha=0.2,
+                   label=f"rheometer mean {rheo['value'] / d:.3f} +- {rheo['error'] / d:.3f} d")
     case = wall.get("calibration_case") or {}
     if math.isfinite(case.get("value", math.nan)):
         err = case.get("error", math.nan)

@@ -90,3 +90,13 @@ def test_an_unknown_source_and_an_old_params_file_are_refused(monkeypatch):
         wall_slip.calibrate_wall("bulk", files, states, [])
     with pytest.raises(CalibrationError, match="wall.slip_length"):
         slip_length({"local": {}})
+
+
+def test_too_few_homogeneous_runs_stop_the_rheometer_law_only(monkeypatch):
+    files, states = _rheometer(monkeypatch, lambda i: 0.45 * D)
+    for state in states[3:]:
+        state["I_spread"] = 0.5 * state["I"]  # one homogeneous run left (I = 0.05)
+    with pytest.raises(CalibrationError, match="two or more"):
+        wall_slip.calibrate_wall("rheometer", files, states, [])
+    none = wall_slip.calibrate_wall("none", files, states, [])
+    assert none["slip_length"]["value"] == 0.0 and "two or more" in none["rheometer"]["not_measured"]
