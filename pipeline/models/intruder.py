@@ -229,7 +229,7 @@ def predict(model: str, params: dict[str, Any], runs: list[dict[str, Any]], fiel
             out[f"sweep_speed_{suffix}"] = ("push_over_yield", np.asarray(ap, dtype=float),
                                             {"units": "m s-1", "long_name": f"force sweep: rod speed of the {label} approximation"})
     # The drift apart from the push (issue 55, item 3): the model's own F = 0 solve per depth.
-    drifts, drift_refused = solve_drifts(model, parameters, scenes, cells_per_d, results)
+    drifts, drift_refused = solve_drifts(model, parameters, scenes, cells_per_d, results, solve_scene)
     out = add_drifts(out, scenes, drifts, linear_drifts(results), drift_refused)
     done = [r for r in results if r is not None]
     out.attrs.update({"model": model, "case": "intruder", "refused": json.dumps(refused),

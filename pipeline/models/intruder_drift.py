@@ -50,11 +50,14 @@ def zero_force(scene: Any) -> Any:
 
 
 def solve_drifts(model: str, parameters: Any, scenes: list[Any], cells_per_d: float,
-                 results: list[Any] | None = None) -> tuple[dict[float, float], list[str]]:
+                 results: list[Any] | None = None, solve_scene: Any = None) -> tuple[dict[float, float], list[str]]:
     """The label's own F = 0 speed (m s-1) at each target depth of ``scenes`` (one solve per depth,
     from its first scene's geometry and rod; warm from that scene's nominal result in ``results``
-    where there is one), and the reasons of the depths it refuses (their drift is NaN)."""
-    from pipeline.models.intruder import solve_scene  # (intruder.py imports this module)
+    where there is one), and the reasons of the depths it refuses (their drift is NaN).
+    ``solve_scene(model, parameters, scene, cells_per_d, warm)``: the stage's scene solver
+    (``pipeline.models.intruder.solve_scene``, which imports this module: it hands itself in)."""
+    if solve_scene is None:
+        raise TypeError("solve_drifts needs the stage's solve_scene")
 
     drifts: dict[float, float] = {}
     refused: list[str] = []

@@ -51,6 +51,7 @@ from scipy.interpolate import RegularGridInterpolator
 
 from pipeline.common import atomic
 from pipeline.common.config import derived_seed, load_config
+from pipeline.scoring.score_table import COLUMNS, ScoringSettings
 from pipeline.scoring.uncertainty import ScoreSamples, finite_sd
 
 CASE = "intruder"
@@ -370,7 +371,6 @@ def _row(case: str, model: str, metric: str, value: float, u_dem: float, pairs: 
 
 
 def main(argv: list[str] | None = None) -> int:
-    from pipeline.scoring.scores import COLUMNS, ScoringSettings
 
     parser = argparse.ArgumentParser(description="The intruder models' 2D fields against the DEM's around the rod.")
     parser.add_argument("--fields-xz", nargs="+", required=True, type=Path, help="fields_xz/intruder/RUN.nc files")

@@ -18,9 +18,8 @@ import argparse
 import itertools
 import json
 import math
-from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable
+from typing import Callable
 
 import numpy as np
 import pandas as pd
@@ -35,16 +34,11 @@ from pipeline.scoring.intruder_scores import score_intruder
 from pipeline.scoring.metrics import MetricError, Profile
 from pipeline.scoring.replicas import (WALL_MARGIN_OVER_D, align_replicas, interior, mean_profile,  # noqa: F401 (re-exported)
                                        replica_profiles, with_microscopic_fluidity)
+from pipeline.scoring.score_table import COLUMNS, ROLES, ScoringSettings  # noqa: F401 (re-exported)
 from pipeline.scoring.wall_scores import score_wall, wall_table
 from pipeline.scoring.uncertainty import (LOG_RESAMPLED, DemNoise, OffsetNoise, ScoreSamples, dem_noise_model, offset_noise,
                                           offset_profiles, resample_profile)
 
-COLUMNS = ["case", "model", "metric", "value", "dem_noise", "n_grid", "solve_seconds", "role",
-           "u_dem", "u_input", "u_num", "u_val", "dem_dof", "draws_solved", "draws_finite", "dem_noise_err",
-           "dem_noise_pairs", "points"]
-
-#: ``role`` of a case: a fit where any of its runs fed the calibration, else a prediction.
-ROLES = ("calibration", "held_out")
 
 
 Metric = Callable[[np.ndarray, dict[str, np.ndarray], Profile, float], float]
@@ -122,21 +116,6 @@ def pair_values(reps: list[xr.Dataset], variable: str, fn: Callable[..., float],
         except MetricError:
             continue
     return [v for v in values if math.isfinite(v)]
-
-
-@dataclass(frozen=True)
-class ScoringSettings:
-    """How the uncertainty is estimated: DEM resamples per case, the master seed, the confidence."""
-
-    dem_resamples: int = 200
-    seed: int = 0
-    confidence: float = 0.95
-
-    @classmethod
-    def from_config(cls, config: dict[str, Any]) -> ScoringSettings:
-        section = config.get("scoring") or {}
-        return cls(int(section.get("dem_resamples", cls.dem_resamples)), int(config.get("seed", 0)),
-                   float(section.get("confidence", cls.confidence)))
 
 
 def _evaluate(fn: Callable[..., float], model: np.ndarray, dem: np.ndarray, err: np.ndarray) -> float:

@@ -12,7 +12,7 @@ import xarray as xr
 
 from pipeline.calibration.parameter_sets import model_parameters
 from pipeline.models import intruder_drift as drift
-from pipeline.models.intruder import scenes_of, solve_scenes
+from pipeline.models.intruder import scenes_of, solve_scene, solve_scenes
 
 D = 0.002
 MU = {"mu_s": 0.374, "mu_2": 1.023, "I_0": 0.637, "nu_c": 0.587, "a": 0.141}
@@ -41,7 +41,7 @@ def test_the_frozen_fluidity_s_own_zero_force_solve_is_its_linear_drift() -> Non
     parameters = model_parameters(PARAMS, "ngf")
     results, reasons = solve_scenes("ngf_frozen", parameters, scenes, 2.0)
     assert reasons == [None] * 3
-    drifts, refused = drift.solve_drifts("ngf_frozen", parameters, scenes, 2.0, results)
+    drifts, refused = drift.solve_drifts("ngf_frozen", parameters, scenes, 2.0, results, solve_scene)
     assert refused == [] and list(drifts) == [4.0]
     linear = drift.linear_drifts(results)
     assert linear == pytest.approx([drifts[4.0]] * 3, rel=1e-6)
