@@ -25,8 +25,12 @@ def slip_figure(params: dict[str, Any]):
     wall, d = params["wall"], float(params["d"])
     states = pd.DataFrame(wall["rheometer"]["states"])
     fig, ax = plt.subplots(figsize=(7, 3.6))
-    ax.errorbar(states["I"], states["slip_length"] / d, yerr=states["slip_length_err"] / d, fmt="o",
-                label="rheometer runs: (s_top + s_bottom) / (2 gammadot)")
+    used = states["used"].astype(bool) if "used" in states else np.ones(len(states), dtype=bool)
+    ax.errorbar(states["I"][used], states["slip_length"][used] / d, yerr=states["slip_length_err"][used] / d, fmt="o",
+                color="C0", label="rheometer runs: (s_top + s_bottom) / (2 gammadot)")
+    if (~used).any():
+        ax.errorbar(states["I"][~used], states["slip_length"][~used] / d, yerr=states["slip_length_err"][~used] / d,
+                    fmt="o", mfc="none", color="C0", alpha=0.6, label="left out: quasi-static or not homogeneous")
     rheo = wall["rheometer"]
     if math.isfinite(rheo["value"]):
         ax.axhspan((rheo["value"] - rheo["error"]) / d, (rheo["value"] + rheo["error"]) / d, color="C0", alpha=0.2,
