@@ -42,7 +42,7 @@ from pipeline.coarse_graining.vtk import write_fields_vtk, write_particles_vtu
 from pipeline.common import atomic
 from pipeline.common.formats import FIELDS_FORMAT_VERSION
 from pipeline.common.provenance import provenance_attrs
-from pipeline.common.statistics import integrated_autocorrelation_time
+from pipeline.common.statistics import autocorrelated_mean_error
 from pipeline.dem.wall_series import read_wall_series
 
 DEFAULTS: dict[str, Any] = {
@@ -205,9 +205,7 @@ def wall_friction(series: pd.DataFrame, blocks: int = 8) -> dict[str, float]:
     ratios = np.array([abs(bx.mean()) / bz.mean() for bx, bz in zip(np.array_split(fx, blocks), np.array_split(fz, blocks))])
     block_err = float(ratios.std(ddof=1) / math.sqrt(blocks))
     sample = np.abs(fx) / np.where(fz > 0, fz, np.nan)
-    sample = sample[np.isfinite(sample)]
-    tau = float(integrated_autocorrelation_time(sample[:, None])[0]) if sample.size > 8 else math.nan
-    auto_err = float(sample.std(ddof=1) * math.sqrt(2.0 * tau / sample.size)) if math.isfinite(tau) else math.nan
+    auto_err = autocorrelated_mean_error(sample[np.isfinite(sample)])
     return {"wall_friction": value, "wall_friction_err": float(np.nanmax([block_err, auto_err]))}
 
 

@@ -38,7 +38,7 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from pipeline.common.statistics import integrated_autocorrelation_time
+from pipeline.common.statistics import autocorrelated_mean_error
 
 #: Grain diameters inside the contact plane where the near-wall fit starts, and its length.
 OFFSET_OVER_D = 0.75
@@ -121,9 +121,7 @@ def _mean_and_error(values: np.ndarray, blocks: int) -> tuple[float, float]:
     mean = float(values.mean())
     block_means = np.array([b.mean() for b in np.array_split(values, blocks)])
     block_err = float(block_means.std(ddof=1) / math.sqrt(blocks))
-    tau = float(integrated_autocorrelation_time(values[:, None])[0]) if values.size > 8 else math.nan
-    auto_err = float(values.std(ddof=1) * math.sqrt(2.0 * tau / values.size)) if math.isfinite(tau) else math.nan
-    return mean, float(np.nanmax([block_err, auto_err]))
+    return mean, float(np.nanmax([block_err, autocorrelated_mean_error(values)]))
 
 
 def wall_stresses(series: pd.DataFrame, area: float, blocks: int = 8) -> dict[str, float]:

@@ -28,6 +28,13 @@ def integrated_autocorrelation_time(series: np.ndarray, window_factor: float = 5
     return np.where(np.isfinite(out), np.maximum(out, 0.5), np.nan)
 
 
+def autocorrelated_mean_error(sample: np.ndarray) -> float:
+    """Standard error of the mean of a correlated series: its standard deviation times
+    sqrt(2 tau / n), tau the integrated autocorrelation time in samples; NaN for 8 samples or fewer."""
+    tau = float(integrated_autocorrelation_time(sample[:, None])[0]) if sample.size > 8 else math.nan
+    return float(sample.std(ddof=1) * math.sqrt(2.0 * tau / sample.size)) if math.isfinite(tau) else math.nan
+
+
 def normal_equivalent(t: float, dof: float) -> tuple[float, float]:
     """The normal deviate with the same two-sided probability as Student's ``t`` with ``dof``
     degrees of freedom, signed as ``t``, and that probability: a difference whose errors come from
