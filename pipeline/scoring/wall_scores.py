@@ -45,12 +45,13 @@ DEM_WALL = ("wall_top_shear_stress", "wall_top_normal_stress", "wall_top_slip", 
 def replica_mean(values: list[float], errors: list[float]) -> tuple[float, float, float]:
     """Mean, its standard error and degrees of freedom: the replicas' scatter with two or more,
     the run's own stated error with one."""
-    v = np.asarray(values, dtype=float)
-    v = v[np.isfinite(v)]
+    v, e = np.asarray(values, dtype=float), np.asarray(errors, dtype=float)
+    finite = np.isfinite(v)
+    v, e = v[finite], e[finite]
     if v.size == 0:
         return math.nan, math.nan, 0.0
     if v.size == 1:
-        return float(v[0]), float(errors[0]), math.inf
+        return float(v[0]), float(e[0]), math.inf
     return float(v.mean()), float(v.std(ddof=1) / math.sqrt(v.size)), float(v.size - 1)
 
 
