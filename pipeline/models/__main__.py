@@ -1,5 +1,6 @@
 """``python -m pipeline.models planar|intruder|intruder-draws|predict``: continuum solutions on a DEM case's geometry."""
 from pipeline.common.cli import dispatch
+from pipeline.common.config import ConfigError
 
 COMMANDS = {
     "planar": ("pipeline.models.planar", "one model on a planar case (1D profile)"),
@@ -9,4 +10,5 @@ COMMANDS = {
     "predict": ("pipeline.models.predict", "every model on candidate planar cases from the config alone, before any DEM"),
 }
 
-raise SystemExit(dispatch("models", COMMANDS))
+# A bad config or an input that is not there is the user's to mend: one line, no traceback.
+raise SystemExit(dispatch("models", COMMANDS, user_errors=(ConfigError, FileNotFoundError)))

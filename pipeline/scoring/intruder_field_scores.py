@@ -379,6 +379,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--config", type=Path, help="the effective config (seed, scoring.dem_resamples)")
     parser.add_argument("--out", required=True, type=Path, help="validation/intruder_fields.csv")
     args = parser.parse_args(argv)
+    missing = [p for p in args.fields_xz if not p.is_file()] + [p for p in args.model_fields if not p.is_dir()]
+    if missing:
+        parser.error(f"{missing[0]}: not there (--fields-xz takes fields_xz/CASE/RUN.nc files, --model-fields "
+                     "model_fields/CASE/MODEL folders)")
     settings = ScoringSettings.from_config(load_config(args.config)) if args.config else ScoringSettings()
     cases = {p.resolve().parent.name for p in args.model_fields}
     case = cases.pop() if len(cases) == 1 else CASE
