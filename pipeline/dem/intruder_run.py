@@ -145,6 +145,11 @@ class IntruderRun(PlanarShearRun):
         p = hydrostatic_pressure(self.wall_pressure, self.mat["rho_s"], self.case["gravity"], self.depth_over_d * d)
         return float(self.case["yield_coefficient"]) * p * self.rod_diameter * self.rod_length
 
+    def cell_area(self) -> float:
+        """The periodic cell's area L_x L_y (m2) in the wall plane."""
+        d = self.mat["d"]
+        return float(self.case["cell_x"]) * d * float(self.case["cell_y"]) * d
+
     def push_force(self) -> float:
         """Total push on the rod along +x (N): ``force`` x the shallowest depth's yield force, the same for
         every depth of the depth sweep and for the control; a force-sweep run's own fraction of the yield
@@ -272,14 +277,15 @@ class IntruderRun(PlanarShearRun):
     def precision_targets(self, precision_cfg: dict[str, Any]) -> dict[str, float]:
         """The intruder is scored on its rod's creep speed: its relative error is the target, or
         for a rod at rest the bound on its speed."""
-        return {k: float(precision_cfg[k]) for k in ("rod_speed_rel", "rod_arrest_speed_over_v") if k in precision_cfg}
+        names = ("rod_speed_rel", "rod_arrest_speed_over_v") + (() if self.control else ("rod_min_travel_over_d",))
+        return {k: float(precision_cfg[k]) for k in names if k in precision_cfg}
 
     def production_precision(self, produced: list[dict[str, Any]], precision_cfg: dict[str, Any]) -> dict[str, Any]:
         """Relative error of the rod's speed over the production so far (``rod_speed_rel``), and
         its speed's 2-sigma bound over the wall speed (``rod_arrest_speed_over_v``): either target
         met stops the production, since for a rod at rest (the controls) more averaging only
         confirms a speed below anything scored."""
-        targets = self.precision_targets(precision_cfg)
+        targets = {k: v for k, v in self.precision_targets(precision_cfg).items() if k != "rod_min_travel_over_d"}
         creep = self.rod_creep(produced[0]["t_start"], produced[-1]["t_end"])
         # The targets are met by the error's upper confidence bound (pipeline.dem.precision.judge).
         upper_err = creep.speed_err * precision.error_bound_factor(SPEED_BLOCKS)
@@ -292,8 +298,21 @@ class IntruderRun(PlanarShearRun):
             reached["rod_arrest_speed_over_v"] = (abs(creep.speed) + 2.0 * creep.speed_err) / self.reference_speed()
             bound["rod_arrest_speed_over_v"] = (abs(creep.speed) + 2.0 * upper_err) / self.reference_speed()
         judged = precision.judge(reached, targets, SPEED_BLOCKS, bound)
-        # Either suffices: a resolved speed, or a bound below anything scored (a rod at rest).
-        return judged | {"all_met": any(judged["met"].values())}
+        at_rest = bool(judged["met"].get("rod_arrest_speed_over_v", False))
+        resolved = bool(judged["met"].get("rod_speed_rel", False))
+        min_travel = precision_cfg.get("rod_min_travel_over_d")
+        if min_travel is not None and not self.control:
+            # A moving rod's speed counts once the rod has left the cage it started in (issue 55,
+            # pipeline.scoring.rod_steadiness): its travel is a lower bound, not an error, so it is
+            # judged apart from the errors' upper bounds.
+            travel = abs(creep.displacement) / self.mat["d"]
+            judged["reached"]["rod_min_travel_over_d"] = travel
+            judged["bound"]["rod_min_travel_over_d"] = travel
+            judged["met"]["rod_min_travel_over_d"] = bool(travel >= float(min_travel))
+            resolved = resolved and judged["met"]["rod_min_travel_over_d"]
+        # Either suffices: a resolved speed (over the travel asked for), or a bound below anything
+        # scored (a rod at rest).
+        return judged | {"all_met": at_rest or resolved}
 
     def _record(self, plan: dict[str, int]) -> dict[str, Any]:
         record = super()._record(plan)
@@ -342,6 +361,12 @@ class IntruderRun(PlanarShearRun):
             "yield_source": "config yield_coefficient * (P + nu rho_s g h_min) * D * L; coefficient measured with "
                             "pipeline.dem.intruder_run --probe-yield (top wall at rest, staircase of forces)",
             "mean_contact_force_x": float(series["fx_contact"].mean()),
+            # The push's share of the cell's shear-stress budget (issue 55): in the periodic cell the
+            # whole push loads the layer below the rod, whose x-averaged sigma_xz is the top wall's
+            # plus F / (L_x L_y). A share of 0.2 or less is a local push.
+            "push_per_area": self.push_force() / self.cell_area(),
+            "top_wall_shear_stress": abs(float(wall["ftop_x"].mean())) / self.cell_area(),
+            "push_budget_share": self.push_force() / abs(float(wall["ftop_x"].mean())),
             "speed": creep.speed,
             "speed_err": creep.speed_err,
             "speed_over_wall_speed": creep.speed / self.reference_speed(),
