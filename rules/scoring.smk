@@ -16,6 +16,7 @@ rule scores:
         intruder_models=layout.intruder_model_paths(config),
         intruder_model_draws=layout.intruder_model_draw_paths(config),
         intruder_fields_xz=layout.intruder_plane_paths(config),
+        intruder_bed_fields=[f for case in layout.intruder_cases(config) for f in layout.fields_paths(config, case)],
         intruder_model_fields=layout.intruder_model_fields_dirs(config),
         params=f"{ROOT}/calibration/params.json",
     output:
@@ -26,6 +27,7 @@ rule scores:
         force_sweep=f"{ROOT}/validation/force_sweep.csv",
         wall=f"{ROOT}/validation/wall.csv",
         intruder_fields=f"{ROOT}/validation/intruder_fields.csv",
+        intruder_bed=f"{ROOT}/validation/intruder_bed.csv",
     log:
         f"{ROOT}/logs/scores.log",
     benchmark:
@@ -38,6 +40,7 @@ rule scores:
         "--scene-needs-out {output.scene_needs} --force-sweep-out {output.force_sweep} --wall-out {output.wall} "
         "--intruder-fields-xz {input.intruder_fields_xz} --intruder-model-fields {input.intruder_model_fields} "
         "--intruder-fields-out {output.intruder_fields} "
+        "--intruder-fields {input.intruder_bed_fields} --intruder-bed-out {output.intruder_bed} "
         "> {log} 2>&1"
 
 

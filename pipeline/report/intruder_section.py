@@ -124,6 +124,7 @@ def rod_frame_figure(root: Path, case: str, runs: list[dict[str, Any]], figures:
 
 #: The steadiness table's columns in the report, and their headings.
 STEADINESS_COLUMNS = {"run": "run", "depth_over_d": "depth / d", "push_over_yield": "F / F_y",
+                      "push_budget_share": "F / (L_x L_y tau_top)",
                       "speed": "U (m/s)", "travel_over_d": "travel / d", "travel_first_half_over_d": "1st half / d",
                       "travel_second_half_over_d": "2nd half / d", "first_half_speed": "U 1st half (m/s)",
                       "second_half_speed": "U 2nd half (m/s)", "halves_z_normal": "halves' z",
@@ -141,7 +142,7 @@ def steadiness_html(root: Path, case: str) -> str:
     table = table[table["case"] == case]
     if table.empty:
         return ""
-    shown = table[list(STEADINESS_COLUMNS)].rename(columns=STEADINESS_COLUMNS)
+    shown = table.reindex(columns=list(STEADINESS_COLUMNS)).rename(columns=STEADINESS_COLUMNS)
     shown = shown.astype(object).where(pd.notna(shown), "n/a")
     counts = table.loc[~table.control.astype(bool), "rod_class"].value_counts()
     tally = ", ".join(f"{counts[k]} {k.replace('_', ' ')}" for k in ("steady", "unsteady", "at_rest", "unknown")
@@ -158,6 +159,8 @@ def steadiness_html(root: Path, case: str) -> str:
             "that have one); the moving rods that are not steady are scored apart as "
             "<code>intruder_speed_log_err_unsteady</code>. Sheared rods here: " + (tally or "none") + ". "
             "Travel in grain diameters d along +x (the halves' travels add up to the production's); "
+            "F / (L_x L_y tau_top): the push's share of the cell's shear-stress budget, the run's own top-wall stress "
+            "tau_top (in the periodic cell the whole push loads the layer below the rod; 0.2 or less is a local push); "
             "<code>validation/rod_steadiness.csv</code>.</p>" + table_html(shown))
 
 

@@ -66,7 +66,8 @@ CLASSES = ("steady", "unsteady", "at_rest", "unknown")
 COLUMNS = ["case", "run", "control", "force_sweep", "depth_target_over_d", "depth_over_d", "push_over_yield",
            "speed", "speed_err", "travel_over_d", "travel_first_half_over_d", "travel_second_half_over_d",
            "first_half_speed", "first_half_speed_err", "second_half_speed", "second_half_speed_err",
-           "halves_z", "halves_dof", "halves_z_normal", "arrested", "steady", "rod_class", "reason"]
+           "halves_z", "halves_dof", "halves_z_normal", "arrested", "steady", "rod_class", "reason",
+           "push_per_area", "top_wall_shear_stress", "push_budget_share"]
 
 
 def split_durations(time: np.ndarray) -> tuple[float, float]:
@@ -184,7 +185,11 @@ def steadiness_row(run: dict[str, Any]) -> dict[str, Any]:
             "first_half_speed_err": float(halves.get("first_err", math.nan)),
             "second_half_speed": float(halves.get("second", math.nan)),
             "second_half_speed_err": float(halves.get("second_err", math.nan)),
-            "arrested": bool(rod.get("arrested", False))} | {k: verdict[k] for k in COLUMNS if k in verdict}
+            "arrested": bool(rod.get("arrested", False)),
+            # the push's share of the cell's shear-stress budget (NaN in records before issue 55)
+            "push_per_area": float(rod.get("push_per_area", math.nan)),
+            "top_wall_shear_stress": float(rod.get("top_wall_shear_stress", math.nan)),
+            "push_budget_share": float(rod.get("push_budget_share", math.nan))} | {k: verdict[k] for k in COLUMNS if k in verdict}
 
 
 def steadiness_table(runs: list[dict[str, Any]]) -> pd.DataFrame:
@@ -205,7 +210,8 @@ def main(argv: list[str] | None = None) -> int:
     args.out.parent.mkdir(parents=True, exist_ok=True)
     atomic.write_csv(table, args.out)
     if len(table):
-        print(table[["case", "run", "travel_over_d", "halves_z_normal", "rod_class", "reason"]].to_string(index=False))
+        print(table[["case", "run", "push_budget_share", "travel_over_d", "halves_z_normal", "rod_class",
+                     "reason"]].to_string(index=False))
     return 0
 
 

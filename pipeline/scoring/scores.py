@@ -29,6 +29,7 @@ from pipeline.common import atomic
 from pipeline.common.config import derived_seed, load_config
 from pipeline.scoring import metrics, verdict
 from pipeline.scoring.force_sweep import score_force_sweep
+from pipeline.scoring.intruder_bed_scores import score_intruder_bed
 from pipeline.scoring.intruder_field_scores import score_intruder_fields
 from pipeline.scoring.intruder_scores import score_intruder
 from pipeline.scoring.metrics import MetricError, Profile
@@ -237,6 +238,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--intruder-model-fields", nargs="*", default=[], type=Path,
                         help="model_fields/intruder/MODEL folders (each model's 2D fields per scene)")
     parser.add_argument("--intruder-fields-out", type=Path, help="validation/intruder_fields.csv")
+    parser.add_argument("--intruder-fields", nargs="*", default=[], type=Path,
+                        help="fields/intruder/RUN.nc files (the x-averaged bed, scored like a planar case)")
+    parser.add_argument("--intruder-bed-out", type=Path, help="validation/intruder_bed.csv")
     parser.add_argument("--wall-out", type=Path, help="validation/wall.csv: the planar cases' top wall, DEM and models")
     args = parser.parse_args(argv)
     config = load_config(args.config) if args.config else {}
@@ -264,6 +268,15 @@ def main(argv: list[str] | None = None) -> int:
             samples |= field_scores.samples
         if args.intruder_fields_out is not None:
             atomic.write_csv(field_scores.table(COLUMNS), args.intruder_fields_out)
+    if args.intruder_fields and args.intruder_model_fields:
+        bed_scores = score_intruder_bed(args.intruder_fields, args.intruder_model_fields, settings)
+        if bed_scores.rows:
+            frames.append(pd.DataFrame(bed_scores.rows, columns=COLUMNS))
+            samples |= bed_scores.samples
+        if args.intruder_bed_out is not None:
+            atomic.write_csv(bed_scores.table(COLUMNS), args.intruder_bed_out)
+    if args.intruder_bed_out is not None and not args.intruder_bed_out.exists():
+        atomic.write_csv(pd.DataFrame(columns=["case", "model", "metric", "scene"]), args.intruder_bed_out)
     if args.intruder_fields_out is not None and not args.intruder_fields_out.exists():
         atomic.write_csv(pd.DataFrame(columns=["case", "model", "metric", "scene"]), args.intruder_fields_out)
     if args.force_sweep_out is not None and not args.force_sweep_out.exists():

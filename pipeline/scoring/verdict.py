@@ -29,7 +29,7 @@ from pipeline.scoring.uncertainty import ScoreSamples, coverage_factor, welch_sa
 
 #: The metrics a scene is judged on: how it creeps, and how it flows.
 CREEP_METRICS = ("log_velocity_rmse", "decay_length_rel_err", "intruder_speed_log_err")
-FLOW_METRICS = ("velocity_rmse_rel", "shear_band_width_rel_err")
+FLOW_METRICS = ("velocity_rmse_rel", "shear_band_width_rel_err", "intruder_bed_velocity_rmse", "intruder_field_velocity_rmse")
 SCENE_METRICS = CREEP_METRICS + FLOW_METRICS
 
 VERDICTS = ("best", "cannot_tell_apart", "worse", "no_prediction")
