@@ -23,12 +23,12 @@ weights (n - 1 degrees of freedom); with one replica its stated errors (``u_x_er
 along z: an underestimate, said so by ``dem_dof`` = inf). ``dem_noise``: the metric between two
 replicas. u_input and u_num are not known: the draws and the grid study keep speeds, not fields.
 
-Usage: ``python -m pipeline.scoring.intruder_bed_scores --fields RESULTS/fields/intruder/*.nc
---model-fields RESULTS/model_fields/intruder/MODEL ... [--config C] --out RESULTS/validation/intruder_bed.csv``
+Written by the scores rule: ``python -m pipeline.scoring scores ... --intruder-fields
+RESULTS/fields/intruder/*.nc --intruder-model-fields RESULTS/model_fields/intruder/MODEL ...
+--intruder-bed-out RESULTS/validation/intruder_bed.csv``.
 """
 from __future__ import annotations
 
-import argparse
 import itertools
 import math
 from dataclasses import dataclass
@@ -36,13 +36,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pandas as pd
 import xarray as xr
 
-from pipeline.common import atomic
-from pipeline.common.config import derived_seed, load_config
+from pipeline.common.config import derived_seed
 from pipeline.scoring.intruder_field_scores import CASE, FieldScores, _row, model_fields_files, scene_of_run
-from pipeline.scoring.score_table import COLUMNS, ScoringSettings
 from pipeline.scoring.uncertainty import ScoreSamples, finite_sd
 
 VELOCITY = "intruder_bed_velocity_rmse"
@@ -180,27 +177,3 @@ def score_intruder_bed(field_files: list[Path], model_dirs: list[Path], settings
             rows.append(_row(case, model, metric, one.value, one.u_dem, noise_all, n_grid, dof, " ".join(covered)))
     return FieldScores(rows, scene_rows, samples)
 
-
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description="The intruder bed's x-averaged profile and top-wall stress, models against the DEM.")
-    parser.add_argument("--fields", nargs="+", required=True, type=Path, help="fields/intruder/RUN.nc files (x-averaged)")
-    parser.add_argument("--model-fields", nargs="+", required=True, type=Path,
-                        help="model_fields/intruder/MODEL folders (python -m pipeline.models.intruder_fields)")
-    parser.add_argument("--config", type=Path, help="the effective config (seed, scoring.dem_resamples)")
-    parser.add_argument("--out", required=True, type=Path, help="validation/intruder_bed.csv")
-    args = parser.parse_args(argv)
-    missing = [p for p in args.fields if not p.is_file()] + [p for p in args.model_fields if not p.is_dir()]
-    if missing:
-        parser.error(f"{missing[0]}: not there (--fields takes fields/CASE/RUN.nc files, --model-fields "
-                     "model_fields/CASE/MODEL folders)")
-    settings = ScoringSettings.from_config(load_config(args.config)) if args.config else ScoringSettings()
-    scores = score_intruder_bed(args.fields, args.model_fields, settings)
-    table = scores.table(COLUMNS)
-    atomic.write_csv(table, args.out)
-    with pd.option_context("display.width", 200):
-        print(table[["scene", "model", "metric", "value", "u_dem", "dem_noise", "replicas", "points"]].to_string(index=False))
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

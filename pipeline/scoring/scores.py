@@ -261,24 +261,20 @@ def main(argv: list[str] | None = None) -> int:
         if args.force_sweep_out is not None:
             atomic.write_csv(sweep, args.force_sweep_out)
             print(sweep.to_string(index=False))
-    if args.intruder_fields_xz and args.intruder_model_fields:
-        field_scores = score_intruder_fields(args.intruder_fields_xz, args.intruder_model_fields, settings)
-        if field_scores.rows:
-            frames.append(pd.DataFrame(field_scores.rows, columns=COLUMNS))
-            samples |= field_scores.samples
-        if args.intruder_fields_out is not None:
-            atomic.write_csv(field_scores.table(COLUMNS), args.intruder_fields_out)
-    if args.intruder_fields and args.intruder_model_fields:
-        bed_scores = score_intruder_bed(args.intruder_fields, args.intruder_model_fields, settings)
-        if bed_scores.rows:
-            frames.append(pd.DataFrame(bed_scores.rows, columns=COLUMNS))
-            samples |= bed_scores.samples
-        if args.intruder_bed_out is not None:
-            atomic.write_csv(bed_scores.table(COLUMNS), args.intruder_bed_out)
-    if args.intruder_bed_out is not None and not args.intruder_bed_out.exists():
-        atomic.write_csv(pd.DataFrame(columns=["case", "model", "metric", "scene"]), args.intruder_bed_out)
-    if args.intruder_fields_out is not None and not args.intruder_fields_out.exists():
-        atomic.write_csv(pd.DataFrame(columns=["case", "model", "metric", "scene"]), args.intruder_fields_out)
+    if args.intruder_model_fields:
+        # around the rod (fields_xz) and the bed's x-average (fields), each with its own table
+        for dem_files, score, out in ((args.intruder_fields_xz, score_intruder_fields, args.intruder_fields_out),
+                                      (args.intruder_fields, score_intruder_bed, args.intruder_bed_out)):
+            if dem_files:
+                found = score(dem_files, args.intruder_model_fields, settings)
+                if found.rows:
+                    frames.append(pd.DataFrame(found.rows, columns=COLUMNS))
+                    samples |= found.samples
+                if out is not None:
+                    atomic.write_csv(found.table(COLUMNS), out)
+    for out in (args.intruder_fields_out, args.intruder_bed_out):
+        if out is not None and not out.exists():
+            atomic.write_csv(pd.DataFrame(columns=["case", "model", "metric", "scene"]), out)
     if args.force_sweep_out is not None and not args.force_sweep_out.exists():
         atomic.write_csv(pd.DataFrame(columns=["push_over_yield", "source", "speed", "note"]), args.force_sweep_out)
     params = json.loads(args.params.read_text())
