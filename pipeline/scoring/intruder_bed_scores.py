@@ -39,8 +39,9 @@ import numpy as np
 import xarray as xr
 
 from pipeline.common.config import derived_seed
-from pipeline.scoring.intruder_field_scores import CASE, FieldScores, _row, model_fields_files, scene_of_run
-from pipeline.scoring.uncertainty import ScoreSamples, finite_sd
+from pipeline.scoring.intruder_field_scores import (CASE, FieldScores, _row, model_fields_files, pool_scenes,
+                                                    scene_of_run)
+from pipeline.scoring.uncertainty import finite_sd
 
 VELOCITY = "intruder_bed_velocity_rmse"
 WALL_STRESS = "intruder_bed_wall_stress_rel_err"
@@ -165,14 +166,10 @@ def score_intruder_bed(field_files: list[Path], model_dirs: list[Path], settings
                 scene_rows.append(_row(case, model, metric, float(value), finite_sd(resampled), [float(p) for p in pairs],
                                        cells, bed.dof, s)
                                   | {"scene": s, "window_points": used, "replicas": len(bed.u), "dem_err_rms": math.nan})
-            covered = [s for s, t in zip(scenes, terms) if np.isfinite(t)]
-            if not covered:
+            pooled = pool_scenes(scenes, terms, terms_dem, {s: dem[s].dof for s in scenes})
+            if pooled is None:
                 continue
-            dofs = [dem[s].dof for s in covered]
-            dof = float(sum(dofs)) if all(math.isfinite(x) for x in dofs) else math.inf
-            full = ScoreSamples(math.nan, np.array([]), np.array([]), math.nan, dof, list(scenes), terms, terms_dem,
-                                np.full((0, len(scenes)), np.nan), np.full(len(scenes), np.nan))
-            one = full.on_points(covered)
+            full, one, covered, dof = pooled
             samples[(case, model, metric)] = full
             rows.append(_row(case, model, metric, one.value, one.u_dem, noise_all, n_grid, dof, " ".join(covered)))
     return FieldScores(rows, scene_rows, samples)

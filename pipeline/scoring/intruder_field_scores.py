@@ -321,14 +321,10 @@ def score_intruder_fields(dem_files: list[Path], model_dirs: list[Path], setting
                 scene_rows.append(_row(case, model, metric, value, finite_sd(resampled), pairs, cells, dem[s].dof, s)
                                   | {"scene": s, "window_points": used, "replicas": dem[s].n_replicas,
                                      "dem_err_rms": error_rms(dem[s], metric)})
-            covered = [s for s, t in zip(scenes, terms) if np.isfinite(t)]
-            if not covered:
+            pooled = pool_scenes(scenes, terms, terms_dem, {s: dem[s].dof for s in scenes})
+            if pooled is None:
                 continue
-            dofs = [dem[s].dof for s in covered]
-            dof = float(sum(dofs)) if all(math.isfinite(x) for x in dofs) else math.inf
-            full = ScoreSamples(math.nan, np.array([]), np.array([]), math.nan, dof, list(scenes), terms, terms_dem,
-                                np.full((0, len(scenes)), np.nan), np.full(len(scenes), np.nan))
-            one = full.on_points(covered)
+            full, one, covered, dof = pooled
             samples[(case, model, metric)] = full
             pairs = [v for s in covered for v in noise[(s, metric)]]
             scene_means = [np.mean(noise[(s, metric)]) for s in covered if noise[(s, metric)]]
@@ -336,6 +332,22 @@ def score_intruder_fields(dem_files: list[Path], model_dirs: list[Path], setting
             row["dem_noise"] = float(np.sqrt(np.mean(np.square(scene_means)))) if scene_means else math.nan
             rows.append(row)
     return FieldScores(rows, scene_rows, samples)
+
+
+def pool_scenes(scenes: list[str], terms: np.ndarray, terms_dem: np.ndarray, dof_of: dict[str, float]
+                ) -> tuple[ScoreSamples, ScoreSamples, list[str], float] | None:
+    """A model's score over the scenes it covers (``terms`` finite): the RMS of their scores, with
+    the per-scene terms kept for the verdict's paired comparisons. Returns (the samples over every
+    scene, those over the covered ones, the covered scenes, the summed DEM degrees of freedom), or
+    None where no scene is covered."""
+    covered = [s for s, t in zip(scenes, terms) if np.isfinite(t)]
+    if not covered:
+        return None
+    dofs = [dof_of[s] for s in covered]
+    dof = float(sum(dofs)) if all(math.isfinite(x) for x in dofs) else math.inf
+    full = ScoreSamples(math.nan, np.array([]), np.array([]), math.nan, dof, list(scenes), terms, terms_dem,
+                        np.full((0, len(scenes)), np.nan), np.full(len(scenes), np.nan))
+    return full, full.on_points(covered), covered, dof
 
 
 def error_rms(scene: DemScene, metric: str) -> float:
