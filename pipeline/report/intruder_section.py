@@ -176,6 +176,7 @@ def drift_html(root: Path, config: dict[str, Any], case: str, runs: list[dict[st
         zero = [float(r["intruder"]["speed"]) for r in at_zero
                 if round(float(r["intruder"]["depth_target_over_d"]), 6) == target]
         drift = float(np.mean(zero)) if zero else np.nan
+        drift_err = float(np.std(zero, ddof=1) / np.sqrt(len(zero))) if len(zero) >= 2 else np.nan
         groups: dict[tuple[bool, float], list[dict]] = {}
         for r in pushed:
             rod = r["intruder"]
@@ -183,11 +184,14 @@ def drift_html(root: Path, config: dict[str, Any], case: str, runs: list[dict[st
                 groups.setdefault((bool(rod.get("force_sweep")), round(float(rod.get("push_over_yield", np.nan)), 6)),
                                   []).append(r)
         for (sweep, push), group in sorted(groups.items()):
-            u = float(np.mean([g["intruder"]["speed"] for g in group]))
+            speeds = [g["intruder"]["speed"] for g in group]
+            u = float(np.mean(speeds))
+            u_err = float(np.std(speeds, ddof=1) / np.sqrt(len(speeds))) if len(speeds) >= 2 else np.nan
             steady = sum(classify(g)["steady"] for g in group)
             rows.append({"source": "DEM", "depth / d": float(np.mean([g["intruder"]["depth_over_d"] for g in group])),
                          "F / F_y": push, "U (m/s)": u, "U_drift (m/s)": drift,
                          "U - U_drift (m/s)": u - drift if np.isfinite(drift) else np.nan,
+                         "+- (m/s)": float(np.hypot(u_err, drift_err)),
                          "note": f"{len(group)} rod{'s' if len(group) != 1 else ''}, {steady} steady"
                                  + ("" if zero else "; no DEM rod at F = 0")})
     # The depth sweep's push of each depth (the first replica's), to put the models' depths against F.
@@ -220,7 +224,9 @@ def drift_html(root: Path, config: dict[str, Any], case: str, runs: list[dict[st
     return ("<h3>The drift and the push apart</h3><p class='note'>U_drift: the rod's speed at the same depth with no "
             "push (the creep of the bed carries it): each model's own F = 0 solve, the DEM's sheared rods at F = 0 "
             "where the case has them. U - U_drift is what the push adds; n/a where either is missing or refused. "
-            "The DEM's U is the mean of its moving rods (the note says how many are steady).</p>" + table_html(frame))
+            "The DEM's U is the mean of its moving rods (the note says how many are steady); +-: the standard error "
+            "of U - U_drift from the replicas' scatter of each (the models' own solves have none here: their draws "
+            "are in the score tables).</p>" + table_html(frame))
 
 
 def draws_band(path: Path, sweep: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
