@@ -261,8 +261,11 @@ class IntruderRun(PlanarShearRun):
         if "speed_before" not in rod:
             where = "at rest" if rod["at_rest"] else "no earlier window yet"
             return f"{super()._steady_summary(test)}; rod {rod['speed'] * 1e3:.3g} mm/s, {where}"
+        change = abs(rod["speed_before"] - rod["speed"])
+        # A rod held still to the last digit (a weak push with the wall at rest) has nothing allowed and no change.
+        share = change / rod["allowed"] if rod["allowed"] > 0 else (0.0 if change == 0 else math.inf)
         return (f"{super()._steady_summary(test)}; rod {rod['speed'] * 1e3:.3g} mm/s against "
-                f"{rod['speed_before'] * 1e3:.3g} before, {abs(rod['speed_before'] - rod['speed']) / rod['allowed']:.2f} of allowed")
+                f"{rod['speed_before'] * 1e3:.3g} before, {share:.2f} of allowed")
 
     def _window_is_production(self) -> bool:
         """Only a control's steady window (its rod at rest over it) starts the production.

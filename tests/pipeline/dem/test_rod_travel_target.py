@@ -55,3 +55,15 @@ def test_without_the_target_the_rule_is_as_before() -> None:
     plain = {k: v for k, v in PRECISION.items() if k != "rod_min_travel_over_d"}
     out = judged(1e-3, 1e-5, 0.1, precision=plain)
     assert out["all_met"] and "rod_min_travel_over_d" not in out["met"]
+
+
+def test_the_log_line_of_a_rod_held_still_to_the_last_digit() -> None:
+    """A weak push with the wall at rest can leave the rod exactly where it was: nothing is allowed
+    and nothing changed, which the steady test's log line reads as 0 of allowed (it divided by 0)."""
+    run = IntruderRun.__new__(IntruderRun)
+    test = {"force": {"drift": 0.0, "allowed": 1.0}, "height": {"drift": 0.0, "allowed": 1.0}, "load": {"ratio": 1.0},
+            "rod": {"speed": 0.0, "speed_err": 0.0, "at_rest": True, "speed_before": 0.0, "allowed": 0.0,
+                    "stationary": True}}
+    assert run._steady_summary(test).endswith("0.00 of allowed")
+    test["rod"]["speed_before"] = 1e-6
+    assert run._steady_summary(test).endswith("inf of allowed")
