@@ -243,6 +243,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--intruder-bed-out", type=Path, help="validation/intruder_bed.csv")
     parser.add_argument("--wall-out", type=Path, help="validation/wall.csv: the planar cases' top wall, DEM and models")
     args = parser.parse_args(argv)
+    rod_cases = sorted({p.parent.name for p in args.intruder_models} | {Path(p).parent.name for p in args.intruder_model_fields})
+    if len(rod_cases) > 1:
+        # The intruder's scores pool one case's rods by depth and push; two cells' rods would mix.
+        parser.error(f"--intruder-models / --intruder-model-fields come from {len(rod_cases)} intruder cases "
+                     f"({', '.join(rod_cases)}): the intruder is scored for one case; a study with a second "
+                     "(config/studies/rod_cell_length.yaml) compares them with benchmarks/rod_cell_length.py")
     config = load_config(args.config) if args.config else {}
     settings = ScoringSettings.from_config(config)
     frames, samples = [], {}

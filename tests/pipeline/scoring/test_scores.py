@@ -37,3 +37,16 @@ def test_intruder_noise_pairs_rods_at_one_depth_that_move() -> None:
     assert intruder_noise_terms(by_depth) == pytest.approx([1.0])
     # A rod creeping backwards has no log speed: no term.
     assert intruder_noise_terms({5.0: [1e-4, -1e-4]}) == []
+
+
+def test_two_intruder_cases_are_refused_by_name(tmp_path, capsys) -> None:
+    """The intruder's scores pool one case's rods: model files of two intruder cases (a cell-length
+    study's) are refused before anything is read, naming both cases."""
+    from pipeline.scoring.scores import main
+    with pytest.raises(SystemExit) as stop:
+        main(["--fields", "f.nc", "--models", "m.nc", "--params", "p.json", "--out", str(tmp_path / "s.csv"),
+              "--intruder-models", "r/models/intruder/ngf.nc", "r/models/intruder_long/ngf.nc"])
+    assert stop.value.code == 2
+    err = capsys.readouterr().err
+    assert "intruder, intruder_long" in err and "one case" in err
+    assert not (tmp_path / "s.csv").exists()
