@@ -142,11 +142,10 @@ def main(argv: list[str] | None = None) -> int:
     print(table.to_string(index=False, float_format=lambda v: f"{v:.3g}"))
     print("\nPer scene (medians over the replicas; ageing exponent a of U ~ t^a: mean +- standard error):")
     print(summary(table).to_string(index=False, float_format=lambda v: f"{v:.3g}"))
-    pooled = table.assign(case="all", run="all-r1")
     a = table["ageing_exponent"].dropna()
     print(f"\nAll {len(table)} moving rods: ageing exponent {a.mean():+.3f} +- {a.std(ddof=1) / math.sqrt(len(a)):.3f} "
           f"(mean +- standard error over the rods); U over the first 1/8, 1/4, 1/2 of the production over U over all of it "
-          f"(medians): " + ", ".join(f"{pooled[f'U_{f:g}_over_U'].median():.2f}" for f in PREFIXES[:-1])
+          f"(medians): " + ", ".join(f"{table[f'U_{f:g}_over_U'].median():.2f}" for f in PREFIXES[:-1])
           + f"; rods past 1 d: {int(np.isfinite(table['strain_to_1d']).sum())} of {len(table)}, median travel "
           f"{table['travel_over_d'].median():.2f} d in a median {table['production_strain'].median():.2f} strain units")
     if args.out:

@@ -338,6 +338,7 @@ class IntruderRun(PlanarShearRun):
         wall = wall[(wall["time"] >= t_start) & (wall["time"] <= t_end)]
         creep = creep_speed(series["time"].to_numpy(), series["x"].to_numpy(), rest_speed=self.rest_speed())
         depth = float(wall["h_top"].mean() - series["z"].mean())
+        wall_shear_force = abs(float(wall["ftop_x"].mean()))  # N, the top wall's over the production
         everything = self.intruder_series(-math.inf, math.inf)
         record["intruder"] = {
             "control": self.control,
@@ -368,8 +369,8 @@ class IntruderRun(PlanarShearRun):
             # whole push loads the layer below the rod, whose x-averaged sigma_xz is the top wall's
             # plus F / (L_x L_y). A share of 0.2 or less is a local push.
             "push_per_area": self.push_force() / self.cell_area(),
-            "top_wall_shear_stress": abs(float(wall["ftop_x"].mean())) / self.cell_area(),
-            "push_budget_share": self.push_force() / abs(float(wall["ftop_x"].mean())),
+            "top_wall_shear_stress": wall_shear_force / self.cell_area(),
+            "push_budget_share": self.push_force() / wall_shear_force,
             "speed": creep.speed,
             "speed_err": creep.speed_err,
             "speed_over_wall_speed": creep.speed / self.reference_speed(),
