@@ -3,8 +3,9 @@
 Run as ``python benchmarks/verdict_stability.py ROOT_A ROOT_B``. Prints, per held-out case and
 metric, each root's set of models that cannot be told apart from the best (best first), then every
 claim "a better than b" at the verdict's confidence (``validation/model_differences.csv``) made in
-either root and what the other root says of the same pair: confirmed (the same claim), not
-confirmed (cannot tell apart) or contradicted (the opposite claim). Intervals wide enough to make
+either root and what the other root says of the same pair: confirmed (the same claim), lost
+(cannot tell apart) or contradicted (the opposite claim): :mod:`pipeline.scoring.claims_across_roots`,
+which the workflow runs for ``scoring.compare_roots``. Intervals wide enough to make
 every pair a tie would have no contradiction and say nothing, so the claims each root makes are
 counted too. It also prints the non-local lengths of both calibrations against their errors.
 """
@@ -17,6 +18,9 @@ import sys
 from pathlib import Path
 
 import pandas as pd
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+from pipeline.scoring.claims_across_roots import claims_across, read_claims  # noqa: E402
 
 
 def read_root(root: Path) -> tuple[pd.DataFrame, pd.DataFrame, dict]:
@@ -39,35 +43,6 @@ def tied_set(frame: pd.DataFrame) -> str:
     best = frame[frame.verdict == "best"]
     tied = frame[frame.verdict == "cannot_tell_apart"].sort_values("value")
     return ", ".join(list(best.model) + list(tied.model)) or "none"
-
-
-def claims(differences: pd.DataFrame) -> dict[tuple[str, str, str, str], str]:
-    """(case, metric, better, other) -> 'better' for every claim of the root."""
-    out = {}
-    for r in differences.itertuples():
-        if r.claim == "a_better":
-            out[(r.case, r.metric, r.model_a, r.model_b)] = "better"
-        elif r.claim == "b_better":
-            out[(r.case, r.metric, r.model_b, r.model_a)] = "better"
-    return out
-
-
-def judged_pairs(differences: pd.DataFrame) -> set[tuple[str, str, frozenset]]:
-    return {(r.case, r.metric, frozenset((r.model_a, r.model_b))) for r in differences.itertuples()}
-
-
-def compare_claims(own: dict, other: dict, other_pairs: set) -> dict[str, list]:
-    out: dict[str, list] = {"confirmed": [], "not confirmed": [], "contradicted": [], "not judged": []}
-    for (case, metric, better, worse) in own:
-        if (case, metric, worse, better) in other:
-            out["contradicted"].append((case, metric, better, worse))
-        elif (case, metric, better, worse) in other:
-            out["confirmed"].append((case, metric, better, worse))
-        elif (case, metric, frozenset((better, worse))) in other_pairs:
-            out["not confirmed"].append((case, metric, better, worse))
-        else:
-            out["not judged"].append((case, metric, better, worse))
-    return out
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -109,16 +84,19 @@ def main(argv: list[str] | None = None) -> int:
     table = pd.DataFrame(rows)
     with pd.option_context("display.max_colwidth", 60, "display.width", 200):
         print(table.to_string(index=False))
-    ca, cb = claims(da), claims(db)
-    ab = compare_claims(ca, cb, judged_pairs(db))
-    ba = compare_claims(cb, ca, judged_pairs(da))
-    print(f"\nclaims 'a better than b' at the verdicts' confidence: A makes {len(ca)}, B makes {len(cb)} "
-          f"(of {len(da)} and {len(db)} pairs judged)")
+    ca, cb = read_claims(args.root_a), read_claims(args.root_b)
+    ab = claims_across(ca, cb, "B", str(args.root_b))
+    ba = claims_across(cb, ca, "A", str(args.root_a))
+    told = ("a_better", "b_better")
+    print(f"\nclaims 'a better than b' at the verdicts' confidence: A makes {sum(v in told for v in ca.values())}, "
+          f"B makes {sum(v in told for v in cb.values())} (of {len(da)} and {len(db)} pairs judged)")
     for name, result in (("A's claims in B", ab), ("B's claims in A", ba)):
-        print(f"  {name}: " + ", ".join(f"{k} {len(v)}" for k, v in result.items()))
-        for case, metric, better, worse in result["contradicted"]:
-            print(f"    contradicted: {case} {metric}: {better} better than {worse}")
-    contradicted = len(ab["contradicted"]) + len(ba["contradicted"])
+        mine = result[result.claim_here.isin(told)]
+        print(f"  {name}: " + ", ".join(f"{k} {int((mine.status == k).sum())}" for k in ("confirmed", "lost", "contradicted")))
+        for r in mine[mine.status == "contradicted"].itertuples():
+            better, worse = (r.model_a, r.model_b) if r.claim_here == "a_better" else (r.model_b, r.model_a)
+            print(f"    contradicted: {r.case} {r.metric}: {better} better than {worse}")
+    contradicted = int((ab.status == "contradicted").sum())
     print(f"\ncontradicted claims: {contradicted}; best model differs in {int((table.best == 'differs').sum())} of "
           f"{len(table)} case-metrics; cannot-tell-apart sets disjoint in {int((table['sets overlap'] == 'no').sum())}")
     return 0

@@ -21,6 +21,7 @@ rule report:
         scene_needs=f"{ROOT}/validation/scene_needs.csv",
         wall=f"{ROOT}/validation/wall.csv",
         claims_cost=f"{ROOT}/validation/claims_cost.csv",
+        claims_across=layout.claims_across_paths(config),
         rod_steadiness=[f"{ROOT}/validation/rod_steadiness.csv"] if layout.intruder_cases(config) else [],
         decay_length=f"{ROOT}/validation/decay_length.csv",
         error_check=f"{ROOT}/validation/error_check.csv",

@@ -86,6 +86,32 @@ rule claims_cost:
         "python -m pipeline.scoring claims-cost --root {params.root} --out {output.table} --pairs-out {output.pairs} > {log} 2>&1"
 
 
+rule claims_across_roots:
+    priority: targets.AFTER_DEM_PRIORITY
+    message:
+        "The verdict's claims in the other roots of scoring.compare_roots (another contact law, another seed)"
+    conda:
+        ENV
+    input:
+        differences=f"{ROOT}/validation/model_differences.csv",
+        verdict=f"{ROOT}/validation/verdict.csv",
+        scores=f"{ROOT}/scores.csv",
+        # scored by their own configs: a root not scored yet is a missing input, named by Snakemake
+        others=[f"{c['root']}/validation/{name}" for c in layout.compared_roots(config)
+                for name in ("model_differences.csv", "verdict.csv")],
+    output:
+        f"{ROOT}/validation/claims_across_roots.csv",
+    params:
+        root=targets.output_root_of_scores,
+        others=[f"'{c['label']}={c['root']}'" for c in layout.compared_roots(config)],
+    log:
+        f"{ROOT}/logs/claims_across_roots.log",
+    benchmark:
+        f"{ROOT}/benchmarks/claims_across_roots.tsv"
+    shell:
+        "python -m pipeline.scoring claims-across --root {params.root} --other {params.others} --out {output} > {log} 2>&1"
+
+
 rule cost_accuracy:
     priority: targets.AFTER_DEM_PRIORITY
     message:

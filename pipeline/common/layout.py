@@ -53,6 +53,16 @@ def fields_paths(config: dict[str, Any], case: str | None = None, size_study: bo
     ]
 
 
+def compared_roots(config: dict[str, Any]) -> list[dict[str, str]]:
+    """``scoring.compare_roots``: the other roots this root's claims are set against (label, root)."""
+    return list((config.get("scoring") or {}).get("compare_roots") or [])
+
+
+def claims_across_paths(config: dict[str, Any]) -> list[str]:
+    """``validation/claims_across_roots.csv`` when other roots are compared, else nothing."""
+    return [str(root(config) / "validation" / "claims_across_roots.csv")] if compared_roots(config) else []
+
+
 def convergence_cases(config: dict[str, Any]) -> list[str]:
     """Scored cases with two or more replicas: their DEM noise has a convergence study."""
     return [case for case in scored_cases(config) if config["cases"][case]["replicas"] >= 2]

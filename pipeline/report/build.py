@@ -28,6 +28,7 @@ from pipeline.common.provenance import software_versions
 from pipeline.common.layout import (convergence_cases, convergence_paths, creeping_cases, fields_paths, intruder_cases, model_names, scored_cases,
                                     shared_fill_paths)
 from pipeline.dem.wall_series import read_wall_series
+from pipeline.report.claims_across_section import claims_across_section
 from pipeline.report.claims_section import claims_section
 from pipeline.report.creep_section import decay_length_section
 from pipeline.report.halves_section import creep_halves_section
@@ -413,6 +414,7 @@ def build_report(config: dict[str, Any], figure_dir: Path | None = None) -> str:
         pareto_section(root, figures),
         dem_convergence_section(root, config, figures) if convergence_cases(config) else "",
         claims_section(root, figures),
+        claims_across_section(root),
         stability_section(root, figures),
         "<h2>DEM runs</h2>",
         "<h3>DEM cost per case</h3>",

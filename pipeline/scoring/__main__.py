@@ -11,6 +11,7 @@ COMMANDS = {
     "intruder-field-scores": ("pipeline.scoring.intruder_field_scores", "the intruder models' 2D fields against the DEM's x-z fields"),
     "rod-steadiness": ("pipeline.scoring.rod_steadiness", "validation/rod_steadiness.csv: each rod's travel and whether its speed is steady"),
     "claims-cost": ("pipeline.scoring.claims_cost", "validation/claims_cost.csv: the verdict's claims with less DEM, against its core-hours"),
+    "claims-across": ("pipeline.scoring.claims_across_roots", "validation/claims_across_roots.csv: each claim in other roots (another contact law, seed)"),
 }
 
 # A bad config or an input that is not there is the user's to mend: one line, no traceback.
