@@ -38,7 +38,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from pipeline.common.config import load_config  # noqa: E402
 from pipeline.scoring import synthetic_creep as synthetic  # noqa: E402
-from pipeline.scoring.decay_length import (BAND_EDGE, RULES, DecayLengthError, fit_windows,  # noqa: E402
+from pipeline.scoring.decay_length import (BAND_EDGE, RULES, DecayLengthError, beta_interval, fit_windows,  # noqa: E402
                                            jackknife_error, scaled_windows, select_model)
 
 CASES = ("shear_gravity", "shear_gravity_fast", "shear_gravity_heavy")
@@ -154,7 +154,10 @@ def default(args: argparse.Namespace) -> int:
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore")
                     fit = beta_of(sub, mu_s, d)
-                    row |= {"beta": fit["beta"], "beta_err": fit["beta_err"], "jackknife_err": jackknife_error(sub, mu_s, d)[0],
+                    interval = beta_interval(sub, fit, mu_s, d)
+                    row |= {"beta": fit["beta"], "beta_err": fit["beta_err"], "jackknife_err": interval["beta_err_jackknife"],
+                            "runs": interval["beta_dof"] + 1,
+                            "ci95": f"{fit['beta'] - interval['beta_half_width']:+.2f} to {fit['beta'] + interval['beta_half_width']:+.2f}",
                             "chi2_red": fit["chi2_reduced"], "delta_aic": fit["delta_aic"],
                             "mu/mu_s": f"{fit['mu_over_mu_s_min']:.2f}-{fit['mu_over_mu_s_max']:.2f}"}
             except (DecayLengthError, RuntimeError) as exc:

@@ -9,7 +9,10 @@ printed first). Compared, each with its error:
   larger of their combined errors and their scatter over sqrt(n);
 - every planar case with gravity: ``log10(u / V)`` of the replica mean (:func:`pipeline.common.observables.replica_mean`)
   at whole d below the top contact plane, where both roots resolve it above 2 errors; the decades
-  resolved (``validation/creep_resolution.csv``, no error); the creep law's ``beta``
+  resolved (``validation/creep_resolution.csv``, no error); the same creep **at equal mu / mu_s**
+  (issue 56, item 5: each bed's own replica-mean mu(z) = tau / p over its root's calibrated mu_s, at
+  ``MU_RATIO_LEVELS``; the error adds mu's replica scatter and mu_s's calibration error, through the
+  profile's local slope, to u's); the creep law's ``beta``
   (``validation/decay_length_fit.csv``, the DEM on all windows); the non-local lengths
   (``calibration/params.json``).
 
@@ -45,6 +48,8 @@ from pipeline.common.observables import creep_speed, replica_mean  # noqa: E402
 REPLICA = re.compile(r"^(?P<state>.+)-r(?P<k>\d+)$")
 #: Depth step (in d) of the thinned profile test: about the coarse-graining kernel's support.
 THIN_EVERY = 3
+#: mu / mu_s at which the creep is compared (issue 56, item 5); 0.1 apart in the thinned test.
+MU_RATIO_LEVELS = tuple(round(0.5 + 0.05 * k, 2) for k in range(8))
 
 
 def config_of(root: Path) -> dict[str, Any]:
@@ -126,6 +131,65 @@ def creep_profile(root: Path, case: str) -> dict[int, tuple[float, float]]:
     return out
 
 
+def mu_s_of(root: Path) -> tuple[float, float]:
+    """The root's calibrated mu_s and its error (NaN without a calibration)."""
+    path = root / "calibration" / "params.json"
+    if not path.is_file():
+        return float("nan"), float("nan")
+    entry = json.loads(path.read_text())["local"]["mu_s"]
+    return float(entry["value"]), float(entry["error"])
+
+
+def creep_at_mu_ratio(root: Path, case: str) -> dict[float, tuple[float, float]]:
+    """log10(u / V) of the replica mean at each of ``MU_RATIO_LEVELS`` of mu / mu_s, with its error
+    (module docstring), below the band (where mu / mu_s falls with depth) and where u > 2 errors."""
+    mu_s, mu_s_err = mu_s_of(root)
+    files = sorted(p for p in (root / "fields" / case).glob("r*.nc") if re.fullmatch(r"r\d+", p.stem))
+    if not files or not math.isfinite(mu_s):
+        return {}
+    sets = [open_fields(p) for p in files]
+    d, v = float(sets[0].attrs["d"]), float(sets[0].attrs["wall_speed"])
+    tops = [float(ds.attrs["z_top_contact_plane"]) for ds in sets]
+    bottoms = [float(ds.attrs.get("z_bottom_contact_plane", ds.attrs["z_bottom_wall"])) for ds in sets]
+    margin = float(sets[0].attrs.get("bulk_margin_over_d", 3.0))
+    depths = np.arange(1.0, min(t - b for t, b in zip(tops, bottoms)) / d - margin, 0.25) * d
+    profiles, mus = [], []
+    for ds, top in zip(sets, tops):
+        u, err, _ = creep_speed(ds)
+        own = top - ds.z.values
+        profiles.append((own, u, err))
+        order = np.argsort(own)
+        mus.append(np.interp(depths, own[order], ds["mu"].values[order], left=np.nan, right=np.nan))
+    for ds in sets:
+        ds.close()
+    u, u_err = replica_mean(depths, profiles) if len(sets) > 1 else (np.interp(depths, *profiles[0][:2]), np.interp(depths, profiles[0][0], profiles[0][2]))
+    mu = np.nanmean(mus, axis=0)
+    mu_err = np.nanstd(mus, axis=0, ddof=1) / math.sqrt(len(mus)) if len(mus) > 1 else np.full_like(mu, np.nan)
+    x = mu / mu_s
+    ok = np.isfinite(u) & np.isfinite(u_err) & (u > 2.0 * u_err) & (u > 0) & np.isfinite(x)
+    # below the band only: from the depth where mu / mu_s first falls under 0.9, while it keeps falling
+    start = int(np.argmax(ok & (x < 0.9))) if np.any(ok & (x < 0.9)) else len(x)
+    stop = start
+    while stop + 1 < len(x) and ok[stop + 1] and x[stop + 1] < x[stop] + 0.02:
+        stop += 1
+    if stop - start < 2:
+        return {}
+    sl = slice(start, stop + 1)
+    xs, logu = x[sl], np.log10(u[sl] / v)
+    log_err = u_err[sl] / (u[sl] * math.log(10.0))
+    x_err = np.hypot(mu_err[sl] / mu_s, xs * mu_s_err / mu_s)
+    slope = np.gradient(logu, xs)
+    order = np.argsort(xs)
+    out = {}
+    for level in MU_RATIO_LEVELS:
+        if not xs.min() <= level <= xs.max():
+            continue
+        value = float(np.interp(level, xs[order], logu[order]))
+        err = float(np.interp(level, xs[order], np.hypot(log_err, slope * x_err)[order]))
+        out[level] = (value, err)
+    return out
+
+
 def csv_rows(path: Path) -> list[dict[str, str]]:
     if not path.is_file():
         return []
@@ -186,6 +250,9 @@ def main(argv: list[str] | None = None) -> int:
         pa, pb = creep_profile(args.root_a, case), creep_profile(args.root_b, case)
         for k in sorted(set(pa) & set(pb)):
             add(f"creep {case}", f"log10 u/V at {k} d", pa[k], pb[k])
+        ra, rb = creep_at_mu_ratio(args.root_a, case), creep_at_mu_ratio(args.root_b, case)
+        for level in sorted(set(ra) & set(rb)):
+            add(f"creep at mu/mu_s {case}", f"log10 u/V at mu/mu_s {level:.2f}", ra[level], rb[level])
         add(f"decades {case}", "decades resolved", (decades(args.root_a, case), float("nan")),
             (decades(args.root_b, case), float("nan")))
     add("beta", "beta (dem, all windows)", beta(args.root_a), beta(args.root_b))
@@ -202,10 +269,14 @@ def main(argv: list[str] | None = None) -> int:
     for r in rows:
         if math.isfinite(r["z"]):
             groups[r["group"]].append(r["z"])
-    thinned = [r["z"] for r in rows if r["group"].startswith("creep") and math.isfinite(r["z"])
-               and int(r["item"].split()[-2]) % THIN_EVERY == 0]
+    thinned = [r["z"] for r in rows if r["group"].startswith("creep ") and not r["group"].startswith("creep at")
+               and math.isfinite(r["z"]) and int(r["item"].split()[-2]) % THIN_EVERY == 0]
     if thinned:
         groups[f"creep, every {THIN_EVERY} d"] = thinned
+    at_ratio = [r["z"] for r in rows if r["group"].startswith("creep at mu/mu_s") and math.isfinite(r["z"])
+                and round(float(r["item"].split()[-1]) * 10, 6) % 1 == 0]
+    if at_ratio:
+        groups["creep at mu/mu_s, every 0.1"] = at_ratio
     # The verdict: the measurements, not what is fitted from them (beta and the lengths are drawn
     # from the same creep and states, so counting them again would double their weight).
     groups[f"VERDICT: rheometer + creep every {THIN_EVERY} d"] = (
