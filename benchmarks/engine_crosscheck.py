@@ -9,7 +9,8 @@ printed first). Compared, each with its error:
   larger of their combined errors and their scatter over sqrt(n);
 - every planar case with gravity: ``log10(u / V)`` of the replica mean (:func:`pipeline.common.observables.replica_mean`)
   at whole d below the top contact plane, where both roots resolve it above 2 errors; the decades
-  resolved (``validation/creep_resolution.csv``, no error); the same creep **at equal mu / mu_s**
+  resolved (``validation/creep_resolution.csv``, no error); the calibrated local laws (mu_s, mu_2,
+  I_0, nu_c, a of ``calibration/params.json``: the states as curves); the same creep **at equal mu / mu_s**
   (issue 56, item 5: each bed's own replica-mean mu(z) = tau / p over its root's calibrated mu_s, at
   ``MU_RATIO_LEVELS``; the error adds mu's replica scatter and mu_s's calibration error, through the
   profile's local slope, to u's); the creep law's ``beta``
@@ -211,6 +212,32 @@ def beta(root: Path) -> tuple[float, float]:
     return float("nan"), float("nan")
 
 
+def local_law(root: Path) -> dict[str, tuple[float, float]]:
+    """The calibrated local laws mu(I) and nu(I) (``calibration/params.json``'s ``local``): the
+    states compared as curves, so a state whose realised I differs between the roots is read on
+    the curve, not against the other root's different point."""
+    path = root / "calibration" / "params.json"
+    if not path.is_file():
+        return {}
+    return {name: (float(e["value"]), float(e["error"]))
+            for name, e in json.loads(path.read_text())["local"].items() if isinstance(e, dict) and "value" in e}
+
+
+def law_chi2(root_a: Path, root_b: Path, law: str) -> tuple[float, int, float] | None:
+    """chi2 = D^T (C_a + C_b)^-1 D of a calibrated law's parameters (``covariance[law]`` of both
+    roots' ``calibration/params.json``: the parameters' correlations counted), its dof and p."""
+    paths = [r / "calibration" / "params.json" for r in (root_a, root_b)]
+    if not all(p.is_file() for p in paths):
+        return None
+    pa, pb = (json.loads(p.read_text()) for p in paths)
+    ca, cb = pa["covariance"].get(law), pb["covariance"].get(law)
+    if ca is None or cb is None or ca["names"] != cb["names"]:
+        return None
+    diff = np.array([pb["local"][n]["value"] - pa["local"][n]["value"] for n in ca["names"]])
+    chi2 = float(diff @ np.linalg.solve(np.asarray(ca["matrix"]) + np.asarray(cb["matrix"]), diff))
+    return chi2, len(diff), float(stats.chi2.sf(chi2, len(diff)))
+
+
 def nonlocal_lengths(root: Path) -> dict[str, tuple[float, float]]:
     path = root / "calibration" / "params.json"
     if not path.is_file():
@@ -256,6 +283,9 @@ def main(argv: list[str] | None = None) -> int:
         add(f"decades {case}", "decades resolved", (decades(args.root_a, case), float("nan")),
             (decades(args.root_b, case), float("nan")))
     add("beta", "beta (dem, all windows)", beta(args.root_a), beta(args.root_b))
+    la, lb = local_law(args.root_a), local_law(args.root_b)
+    for name in sorted(set(la) & set(lb)):
+        add("local law", name, la[name], lb[name])
     la, lb = nonlocal_lengths(args.root_a), nonlocal_lengths(args.root_b)
     for name in sorted(set(la) & set(lb)):
         add("nonlocal", name, la[name], lb[name])
@@ -267,7 +297,8 @@ def main(argv: list[str] | None = None) -> int:
     print("\nTest: chi2 = sum z^2 over the group's terms (dof = terms); p = P(chi2_dof > chi2)")
     groups: dict[str, list[float]] = defaultdict(list)
     for r in rows:
-        if math.isfinite(r["z"]):
+        # the local law's parameters are correlated: tested below with their covariances
+        if math.isfinite(r["z"]) and r["group"] != "local law":
             groups[r["group"]].append(r["z"])
     thinned = [r["z"] for r in rows if r["group"].startswith("creep ") and not r["group"].startswith("creep at")
                and math.isfinite(r["z"]) and int(r["item"].split()[-2]) % THIN_EVERY == 0]
@@ -286,6 +317,12 @@ def main(argv: list[str] | None = None) -> int:
         p = float(stats.chi2.sf(chi2, len(zs)))
         print(f"  {name:<36} chi2 {chi2:8.2f} / {len(zs):3d} dof, p = {p:.3g}: "
               f"{'agree at 5 %' if p > 0.05 else 'DIFFER at 5 %'}")
+    for law in ("mu_i", "nu_i"):
+        found = law_chi2(args.root_a, args.root_b, law)
+        if found is not None:
+            chi2, dof, p = found
+            print(f"  {'calibrated ' + law + ' (covariances)':<36} chi2 {chi2:8.2f} / {dof:3d} dof, p = {p:.3g}: "
+                  f"{'agree at 5 %' if p > 0.05 else 'DIFFER at 5 %'}")
     if args.csv:
         with args.csv.open("w", newline="") as f:
             w = csv.DictWriter(f, fieldnames=list(rows[0]))
