@@ -33,7 +33,7 @@ rule dem_fill:
 
 rule dem:
     message:
-        "LIGGGHTS run {wildcards.case}/{wildcards.run}"
+        f"DEM run ({config['dem'].get('engine', 'liggghts')}) {{wildcards.case}}/{{wildcards.run}}"
     conda:
         ENV
     input:
