@@ -58,3 +58,21 @@ def test_an_unscored_root_is_named(tmp_path: Path):
     else:
         raise AssertionError("an unscored root was read")
     assert not (tmp_path / "o.csv").exists()
+
+
+def test_a_label_the_shell_would_split_is_refused_by_the_schema(tmp_path: Path):
+    import pytest
+    import yaml
+
+    from pipeline.common.config import ConfigError, load_config
+
+    config = yaml.safe_load((Path(__file__).resolve().parents[3] / "config" / "config.yaml").read_text())
+    config["scoring"]["compare_roots"] = [{"label": "damping off", "root": "results-damping-off"}]
+    good = tmp_path / "good.yaml"
+    good.write_text(yaml.safe_dump(config))
+    assert load_config(good)["scoring"]["compare_roots"][0]["root"] == "results-damping-off"
+    config["scoring"]["compare_roots"] = [{"label": "it's=off", "root": "x"}]
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(yaml.safe_dump(config))
+    with pytest.raises(ConfigError, match="scoring.compare_roots.0.label"):
+        load_config(bad)
