@@ -4,7 +4,10 @@ The pipeline run (``pipeline.dem.planar_run``: rendering, log and series checks,
 restart bookkeeping) is timed from outside. Then every stage input it rendered (``in.fill``,
 ``in.shear_000``, ...) is replayed in a copy of the run folder with the bare binary, in the same
 order, renaming each restart as the pipeline does. Both do exactly the same LIGGGHTS steps; the
-ratio of the two wall times is the overhead. Pairs are alternated to share machine load.
+ratio of the two wall times is the overhead. Pairs are alternated to share machine load. A third
+replay of the same inputs with ``dump_every`` set to 0 (no particle or contact dumps) prices the
+dumps inside the engine (issue 57, item 4); what is left between it and the engine's bare
+throughput (``benchmarks/engine_speed.py``) is the stages' restarts and process starts.
 
 Usage: ``python benchmarks/dem_overhead.py [--config config/ci.yaml] [--case rheometer] [--run I0.2-P200-r1] [--repeat 2]``
 """
@@ -12,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 import shutil
 import subprocess
 import sys
@@ -34,9 +38,15 @@ def pipeline_run(config: str, case: str, run: str, out: Path) -> float:
     return time.perf_counter() - start
 
 
-def bare_replay(run_dir: Path, work: Path) -> tuple[float, int]:
+DUMP_EVERY = re.compile(r'^variable dump_every string "\d+"$', re.MULTILINE)
+
+
+def bare_replay(run_dir: Path, work: Path, dumps: bool = True) -> tuple[float, int]:
     state = json.loads((run_dir / "state.json").read_text())
     shutil.copytree(run_dir, work)
+    if not dumps:
+        for path in work.glob("in.*"):
+            path.write_text(DUMP_EVERY.sub('variable dump_every string "0"', path.read_text()))
     for sub in ("restart", "series", "dumps", "logs"):
         shutil.rmtree(work / sub, ignore_errors=True)
         (work / sub).mkdir()
@@ -59,19 +69,23 @@ def main() -> None:
     parser.add_argument("--run", default="I0.2-P200-r1")
     parser.add_argument("--repeat", type=int, default=2)
     args = parser.parse_args()
-    ratios = []
+    ratios, dump_ratios = [], []
     with tempfile.TemporaryDirectory() as tmp:
         for k in range(args.repeat):
             out = Path(tmp) / f"pipeline{k}"
             t_pipe = pipeline_run(args.config, args.case, args.run, out)
             t_bare, steps = bare_replay(out, Path(tmp) / f"bare{k}")
+            t_nodump, _ = bare_replay(out, Path(tmp) / f"nodump{k}", dumps=False)
             ratios.append(t_pipe / t_bare)
+            dump_ratios.append(t_bare / t_nodump)
             n = json.loads((out / "run.json").read_text())["particle_count"]
             print(f"repeat {k}: {steps} shear/production steps + fill, {n} grains: "
                   f"pipeline {t_pipe:.2f} s, bare liggghts {t_bare:.2f} s, ratio {t_pipe / t_bare:.3f} "
-                  f"(bare: {steps * n / t_bare / 1e6:.2f} M particle-steps/s)")
+                  f"(bare: {steps * n / t_bare / 1e6:.2f} M particle-steps/s); without dumps {t_nodump:.2f} s "
+                  f"({steps * n / t_nodump / 1e6:.2f} M particle-steps/s), dumps ratio {t_bare / t_nodump:.3f}")
     print(f"pipeline / bare wall time: mean ratio {sum(ratios) / len(ratios):.3f} "
-          f"(overhead {100 * (sum(ratios) / len(ratios) - 1):.1f} %) over {len(ratios)} pairs")
+          f"(overhead {100 * (sum(ratios) / len(ratios) - 1):.1f} %) over {len(ratios)} pairs; "
+          f"bare with / without dumps: mean ratio {sum(dump_ratios) / len(dump_ratios):.3f}")
 
 
 if __name__ == "__main__":
