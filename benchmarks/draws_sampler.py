@@ -44,6 +44,23 @@ def model_seconds(root: Path) -> float:
     return total
 
 
+def compare(table: pd.DataFrame, cols: list[str], n_ref: float | pd.Series) -> pd.DataFrame:
+    """``table`` (``u_input_ref`` and one column of u_input per scramble, ``cols``) with the
+    scrambles' mean and standard error, the reference's sampling error for ``n_ref`` random draws,
+    their ratio and z; rows whose reference u_input is at round-off are dropped (a score the draws
+    cannot move, e.g. critical state's band, says nothing)."""
+    table = table.copy()
+    table["sobol_mean"] = table[cols].mean(axis=1)
+    table["sobol_sem"] = table[cols].std(axis=1, ddof=1) / math.sqrt(len(cols)) if len(cols) > 1 else np.nan
+    table["ref_err"] = table["u_input_ref"] / np.sqrt(2 * (n_ref - 1))
+    table["ratio"] = table["sobol_mean"] / table["u_input_ref"]
+    table["z"] = (table["sobol_mean"] - table["u_input_ref"]) / np.hypot(table["ref_err"], table["sobol_sem"])
+    table = table[np.isfinite(table["u_input_ref"]) & (table["u_input_ref"] > 1e-12)]
+    pd.set_option("display.width", 220)
+    print(table.reset_index().to_string(index=False, float_format=lambda x: f"{x:.4g}"))
+    return table
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("root", type=Path)
@@ -72,15 +89,7 @@ def main(argv: list[str] | None = None) -> int:
     runs = pd.concat([pd.read_csv(r / "scores.csv").set_index(key)["u_input"].rename(r.name) for r in roots], axis=1)
     table = pd.DataFrame({"u_input_ref": ref["u_input"]}).join(runs, how="inner")
     cols = [r.name for r in roots]
-    table["sobol_mean"] = table[cols].mean(axis=1)
-    table["sobol_sem"] = table[cols].std(axis=1, ddof=1) / math.sqrt(len(cols)) if len(cols) > 1 else np.nan
-    table["ref_err"] = table["u_input_ref"] / math.sqrt(2 * (n_ref - 1))
-    table["ratio"] = table["sobol_mean"] / table["u_input_ref"]
-    table["z"] = (table["sobol_mean"] - table["u_input_ref"]) / np.hypot(table["ref_err"], table["sobol_sem"])
-    # a u_input at round-off (a score the draws cannot move, e.g. critical state's band) says nothing
-    table = table[np.isfinite(table["u_input_ref"]) & (table["u_input_ref"] > 1e-12)]
-    pd.set_option("display.width", 220)
-    print(table.reset_index().to_string(index=False, float_format=lambda x: f"{x:.4g}"))
+    table = compare(table, cols, n_ref)
     within = (table["z"].abs() <= 2.0).mean()
     print(f"\n{len(table)} scores; sobol ({args.draws} draws, {len(cols)} scrambles) / random ({n_ref} draws): "
           f"u_input ratio median {table['ratio'].median():.3f}, range {table['ratio'].min():.3f}-{table['ratio'].max():.3f}; "
@@ -157,14 +166,7 @@ def intruder_main(args: argparse.Namespace) -> int:
     n_ref = {m: int(xr.open_dataset(p).attrs["n_draws"]) for m, p in ref_files.items()}
     cols = [r.name for r in roots]
     table["n_ref"] = [n_ref[m] for m in table.index.get_level_values("model")]
-    table["sobol_mean"] = table[cols].mean(axis=1)
-    table["sobol_sem"] = table[cols].std(axis=1, ddof=1) / math.sqrt(len(cols)) if len(cols) > 1 else np.nan
-    table["ref_err"] = table["u_input_ref"] / np.sqrt(2 * (table["n_ref"] - 1))
-    table["ratio"] = table["sobol_mean"] / table["u_input_ref"]
-    table["z"] = (table["sobol_mean"] - table["u_input_ref"]) / np.hypot(table["ref_err"], table["sobol_sem"])
-    table = table[np.isfinite(table["u_input_ref"]) & (table["u_input_ref"] > 1e-12)]
-    pd.set_option("display.width", 220)
-    print(table.reset_index().to_string(index=False, float_format=lambda x: f"{x:.4g}"))
+    table = compare(table, cols, table["n_ref"])
     print(f"\n{len(table)} intruder scores; sobol ({args.intruder_draws} NGF / {args.intruder_plastic_draws} plastic draws, "
           f"{len(cols)} scrambles) / the root's draws: u_input ratio median {table['ratio'].median():.3f}, range "
           f"{table['ratio'].min():.3f}-{table['ratio'].max():.3f}; |z| <= 2 for {(table['z'].abs() <= 2).mean():.0%} "

@@ -33,6 +33,7 @@ import json
 import math
 import re
 import sys
+from dataclasses import dataclass
 from collections import defaultdict
 from pathlib import Path
 from typing import Any
@@ -98,33 +99,55 @@ def rheometer_states(root: Path, margin: float) -> dict[str, dict[str, tuple[flo
             for state, reps in groups.items()}
 
 
-def creep_profile(root: Path, case: str) -> dict[int, tuple[float, float]]:
-    """log10(u / V) of the replica mean and its error at whole d below the top contact plane."""
+@dataclass
+class Bed:
+    """A gravity case's replicas in one root: each replica's ``(depth below its top contact plane,
+    u, u's error, mu)`` profiles, the grain diameter, the wall speed (None if not recorded), the
+    shallowest replica's depth between the contact planes and the bulk margin (m)."""
+    d: float
+    wall_speed: float | None
+    depth_span: float
+    margin: float
+    replicas: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]
+
+
+def bed_of(root: Path, case: str) -> Bed | None:
+    """The replicas ``fields/<case>/r<k>.nc`` of ``root`` (None without any)."""
     files = sorted(p for p in (root / "fields" / case).glob("r*.nc") if re.fullmatch(r"r\d+", p.stem))
     if not files:
+        return None
+    replicas, spans = [], []
+    for path in files:
+        with open_fields(path) as ds:
+            top = float(ds.attrs["z_top_contact_plane"])
+            spans.append(top - float(ds.attrs.get("z_bottom_contact_plane", ds.attrs["z_bottom_wall"])))
+            u, err, _ = creep_speed(ds)
+            replicas.append((top - ds.z.values, u, err, ds["mu"].values))
+            if path == files[0]:
+                d, margin = float(ds.attrs["d"]), float(ds.attrs.get("bulk_margin_over_d", 3.0)) * float(ds.attrs["d"])
+                speed = float(ds.attrs["wall_speed"]) if "wall_speed" in ds.attrs else None
+    return Bed(d, speed, min(spans), margin, replicas)
+
+
+def mean_profile(depths: np.ndarray, profiles: list[tuple[np.ndarray, np.ndarray, np.ndarray]]
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """The replicas' mean and error at ``depths`` (:func:`replica_mean`); one replica's own values."""
+    if len(profiles) > 1:
+        return replica_mean(depths, profiles)
+    own, value, error = profiles[0]
+    order = np.argsort(own)
+    return (np.interp(depths, own[order], value[order], left=np.nan, right=np.nan),
+            np.interp(depths, own[order], error[order], left=np.nan, right=np.nan))
+
+
+def creep_profile(root: Path, case: str) -> dict[int, tuple[float, float]]:
+    """log10(u / V) of the replica mean and its error at whole d below the top contact plane."""
+    bed = bed_of(root, case)
+    if bed is None:
         return {}
-    sets = [open_fields(p) for p in files]
-    d = float(sets[0].attrs["d"])
-    v = float(sets[0].attrs["wall_speed"]) if "wall_speed" in sets[0].attrs else None
-    tops = [float(ds.attrs["z_top_contact_plane"]) for ds in sets]
-    bottoms = [float(ds.attrs.get("z_bottom_contact_plane", ds.attrs["z_bottom_wall"])) for ds in sets]
-    deepest = min(t - b for t, b in zip(tops, bottoms)) / d
-    depths = np.arange(1, int(deepest))
-    profiles = []
-    for ds, top in zip(sets, tops):
-        u, err, _ = creep_speed(ds)
-        profiles.append((top - ds.z.values, u, err))
-    if len(sets) > 1:
-        u, err = replica_mean(depths * d, profiles)
-    else:
-        own, value, error = profiles[0]
-        order = np.argsort(own)
-        u = np.interp(depths * d, own[order], value[order], left=np.nan, right=np.nan)
-        err = np.interp(depths * d, own[order], error[order], left=np.nan, right=np.nan)
-    if v is None:
-        v = float(np.nanmax(u))
-    for ds in sets:
-        ds.close()
+    depths = np.arange(1, int(bed.depth_span / bed.d))
+    u, err = mean_profile(depths * bed.d, [r[:3] for r in bed.replicas])
+    v = bed.wall_speed if bed.wall_speed is not None else float(np.nanmax(u))
     out = {}
     for k, ui, ei in zip(depths, u, err):
         if np.isfinite(ui) and np.isfinite(ei) and ui > 2.0 * ei and ui > 0:
@@ -134,10 +157,10 @@ def creep_profile(root: Path, case: str) -> dict[int, tuple[float, float]]:
 
 def mu_s_of(root: Path) -> tuple[float, float]:
     """The root's calibrated mu_s and its error (NaN without a calibration)."""
-    path = root / "calibration" / "params.json"
-    if not path.is_file():
+    params = params_of(root)
+    if params is None:
         return float("nan"), float("nan")
-    entry = json.loads(path.read_text())["local"]["mu_s"]
+    entry = params["local"]["mu_s"]
     return float(entry["value"]), float(entry["error"])
 
 
@@ -145,25 +168,15 @@ def creep_at_mu_ratio(root: Path, case: str) -> dict[float, tuple[float, float]]
     """log10(u / V) of the replica mean at each of ``MU_RATIO_LEVELS`` of mu / mu_s, with its error
     (module docstring), below the band (where mu / mu_s falls with depth) and where u > 2 errors."""
     mu_s, mu_s_err = mu_s_of(root)
-    files = sorted(p for p in (root / "fields" / case).glob("r*.nc") if re.fullmatch(r"r\d+", p.stem))
-    if not files or not math.isfinite(mu_s):
+    bed = bed_of(root, case)
+    if bed is None or bed.wall_speed is None or not math.isfinite(mu_s):
         return {}
-    sets = [open_fields(p) for p in files]
-    d, v = float(sets[0].attrs["d"]), float(sets[0].attrs["wall_speed"])
-    tops = [float(ds.attrs["z_top_contact_plane"]) for ds in sets]
-    bottoms = [float(ds.attrs.get("z_bottom_contact_plane", ds.attrs["z_bottom_wall"])) for ds in sets]
-    margin = float(sets[0].attrs.get("bulk_margin_over_d", 3.0))
-    depths = np.arange(1.0, min(t - b for t, b in zip(tops, bottoms)) / d - margin, 0.25) * d
-    profiles, mus = [], []
-    for ds, top in zip(sets, tops):
-        u, err, _ = creep_speed(ds)
-        own = top - ds.z.values
-        profiles.append((own, u, err))
+    depths = np.arange(bed.d, bed.depth_span - bed.margin, 0.25 * bed.d)
+    u, u_err = mean_profile(depths, [r[:3] for r in bed.replicas])
+    mus = []
+    for own, _, _, mu_own in bed.replicas:
         order = np.argsort(own)
-        mus.append(np.interp(depths, own[order], ds["mu"].values[order], left=np.nan, right=np.nan))
-    for ds in sets:
-        ds.close()
-    u, u_err = replica_mean(depths, profiles) if len(sets) > 1 else (np.interp(depths, *profiles[0][:2]), np.interp(depths, profiles[0][0], profiles[0][2]))
+        mus.append(np.interp(depths, own[order], mu_own[order], left=np.nan, right=np.nan))
     mu = np.nanmean(mus, axis=0)
     mu_err = np.nanstd(mus, axis=0, ddof=1) / math.sqrt(len(mus)) if len(mus) > 1 else np.full_like(mu, np.nan)
     x = mu / mu_s
@@ -176,7 +189,7 @@ def creep_at_mu_ratio(root: Path, case: str) -> dict[float, tuple[float, float]]
     if stop - start < 2:
         return {}
     sl = slice(start, stop + 1)
-    xs, logu = x[sl], np.log10(u[sl] / v)
+    xs, logu = x[sl], np.log10(u[sl] / bed.wall_speed)
     log_err = u_err[sl] / (u[sl] * math.log(10.0))
     x_err = np.hypot(mu_err[sl] / mu_s, xs * mu_s_err / mu_s)
     slope = np.gradient(logu, xs)
@@ -212,24 +225,29 @@ def beta(root: Path) -> tuple[float, float]:
     return float("nan"), float("nan")
 
 
+def params_of(root: Path) -> dict[str, Any] | None:
+    """``calibration/params.json`` of ``root`` (None before its calibration)."""
+    path = root / "calibration" / "params.json"
+    return json.loads(path.read_text()) if path.is_file() else None
+
+
 def local_law(root: Path) -> dict[str, tuple[float, float]]:
     """The calibrated local laws mu(I) and nu(I) (``calibration/params.json``'s ``local``): the
     states compared as curves, so a state whose realised I differs between the roots is read on
     the curve, not against the other root's different point."""
-    path = root / "calibration" / "params.json"
-    if not path.is_file():
+    params = params_of(root)
+    if params is None:
         return {}
     return {name: (float(e["value"]), float(e["error"]))
-            for name, e in json.loads(path.read_text())["local"].items() if isinstance(e, dict) and "value" in e}
+            for name, e in params["local"].items() if isinstance(e, dict) and "value" in e}
 
 
 def law_chi2(root_a: Path, root_b: Path, law: str) -> tuple[float, int, float] | None:
     """chi2 = D^T (C_a + C_b)^-1 D of a calibrated law's parameters (``covariance[law]`` of both
     roots' ``calibration/params.json``: the parameters' correlations counted), its dof and p."""
-    paths = [r / "calibration" / "params.json" for r in (root_a, root_b)]
-    if not all(p.is_file() for p in paths):
+    pa, pb = params_of(root_a), params_of(root_b)
+    if pa is None or pb is None:
         return None
-    pa, pb = (json.loads(p.read_text()) for p in paths)
     ca, cb = pa["covariance"].get(law), pb["covariance"].get(law)
     if ca is None or cb is None or ca["names"] != cb["names"]:
         return None
@@ -239,10 +257,7 @@ def law_chi2(root_a: Path, root_b: Path, law: str) -> tuple[float, int, float] |
 
 
 def nonlocal_lengths(root: Path) -> dict[str, tuple[float, float]]:
-    path = root / "calibration" / "params.json"
-    if not path.is_file():
-        return {}
-    params = json.loads(path.read_text()).get("nonlocal", {})
+    params = (params_of(root) or {}).get("nonlocal", {})
     return {f"{model}.{name}": (float(e["value"]), float(e.get("error", float("nan"))))
             for model, entries in params.items() for name, e in entries.items()}
 

@@ -20,7 +20,8 @@ from pathlib import Path
 import pandas as pd
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from pipeline.scoring.claims_across_roots import claims_across, read_claims  # noqa: E402
+from pipeline.scoring.claims_across_roots import claims_across  # noqa: E402
+from pipeline.scoring.claims_cost import TOLD_APART, claims  # noqa: E402
 
 
 def read_root(root: Path) -> tuple[pd.DataFrame, pd.DataFrame, dict]:
@@ -84,14 +85,13 @@ def main(argv: list[str] | None = None) -> int:
     table = pd.DataFrame(rows)
     with pd.option_context("display.max_colwidth", 60, "display.width", 200):
         print(table.to_string(index=False))
-    ca, cb = read_claims(args.root_a), read_claims(args.root_b)
+    ca, cb = claims(da, va), claims(db, vb)
     ab = claims_across(ca, cb, "B", str(args.root_b))
     ba = claims_across(cb, ca, "A", str(args.root_a))
-    told = ("a_better", "b_better")
-    print(f"\nclaims 'a better than b' at the verdicts' confidence: A makes {sum(v in told for v in ca.values())}, "
-          f"B makes {sum(v in told for v in cb.values())} (of {len(da)} and {len(db)} pairs judged)")
+    print(f"\nclaims 'a better than b' at the verdicts' confidence: A makes {sum(v in TOLD_APART for v in ca.values())}, "
+          f"B makes {sum(v in TOLD_APART for v in cb.values())} (of {len(da)} and {len(db)} pairs judged)")
     for name, result in (("A's claims in B", ab), ("B's claims in A", ba)):
-        mine = result[result.claim_here.isin(told)]
+        mine = result[result.claim_here.isin(TOLD_APART)]
         print(f"  {name}: " + ", ".join(f"{k} {int((mine.status == k).sum())}" for k in ("confirmed", "lost", "contradicted")))
         for r in mine[mine.status == "contradicted"].itertuples():
             better, worse = (r.model_a, r.model_b) if r.claim_here == "a_better" else (r.model_b, r.model_a)

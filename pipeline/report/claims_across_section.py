@@ -10,6 +10,7 @@ import pandas as pd
 
 from pipeline.report.html import table_html
 from pipeline.scoring.claims_across_roots import summary
+from pipeline.scoring.claims_cost import TOLD_APART
 
 #: How each status reads in the report's line.
 SAYS = {"confirmed": "holds in both", "lost": "lost there (cannot tell apart)", "contradicted": "contradicted there",
@@ -20,7 +21,7 @@ def claim_lines(table: pd.DataFrame) -> pd.DataFrame:
     """A row per claim: the better and worse model as the claim says, and what the other root says."""
     rows = []
     for r in table.itertuples(index=False):
-        claim = r.claim_here if r.claim_here in ("a_better", "b_better") else r.claim_other
+        claim = r.claim_here if r.claim_here in TOLD_APART else r.claim_other
         better, worse = (r.model_a, r.model_b) if claim == "a_better" else (r.model_b, r.model_a)
         rows.append({"other root": r.other_label, "case": r.case, "metric": r.metric,
                      "claim": f"{better} better than {worse}", "here": r.claim_here, "there": r.claim_other,
