@@ -39,6 +39,8 @@ def model_seconds(root: Path) -> float:
 
     total = 0.0
     for path in sorted((root / "model_draws").glob("*/*.nc")):
+        if path.parent.name == "intruder":  # the --intruder mode's draws (their seconds are its own line)
+            continue
         with xr.open_dataset(path) as ds:
             total += float(np.nansum(ds["solve_seconds"].values))
     return total
