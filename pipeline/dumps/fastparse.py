@@ -73,6 +73,9 @@ static int parse_token(const char *p, const char *end, double *val) {
     size_t n = (size_t)(end - s);
     if (n >= sizeof buf || n == 0) return 1;
     memcpy(buf, s, n); buf[n] = 0;
+    /* strtod also reads C99 hex floats ("0x.0", "0x1p3") and "nan(...)": no dump writes them and
+       Python's float() refuses them, so a token holding them is corruption, not a number. */
+    if (strpbrk(buf, "xX(")) return 1;
     char *stop;
     double v = strtod(buf, &stop);
     if (stop != buf + n) return 1;

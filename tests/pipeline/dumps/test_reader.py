@@ -144,7 +144,10 @@ def test_truncated_file_names_file_and_line(tmp_path, rng, parser):
 def test_malformed_and_nan_values_name_the_line(tmp_path, rng, parser):
     path = tmp_path / "m.dump"
     lines = lines_of(rng, path)
-    for bad, words in (("1.2.3", "not a number"), ("nan", "non-finite"), ("-inf", "non-finite"), ("abc", "not a number")):
+    for bad, words in (("1.2.3", "not a number"), ("nan", "non-finite"), ("-inf", "non-finite"), ("abc", "not a number"),
+                       # strtod reads C99 hex floats and nan(...); no dump writes them and float()
+                       # refuses them (hypothesis found "0x.0", an 'x' put into "0.0", read as 0.0)
+                       ("0x.0", "not a number"), ("0x1p3", "not a number"), ("nan(1)", "not a number")):
         edited = list(lines)
         words_ = edited[11].split()
         words_[5] = bad
