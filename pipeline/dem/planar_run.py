@@ -25,7 +25,7 @@ from pipeline.dem.contact_scaling import ContactDesign, design_contacts
 from pipeline.dem.engines import CONTACT_COLUMNS, DELTA_COLUMN, make_engine  # noqa: F401
 # Re-exported: other modules, tests and benchmarks reach the LIGGGHTS templates and launch from here.
 from pipeline.dem import liggghts_render as render  # noqa: F401
-from pipeline.dem import force_balance
+from pipeline.dem import adopted_packing, force_balance
 from pipeline.dem.engines.liggghts import Launcher, _mpi_environment, run_liggghts  # noqa: F401
 from pipeline.dem.lifecycle import (FILL_FILES, FILL_RECORD, OPTIONAL_FILL_FILES, START_RESTART,  # noqa: F401
                                     STEADY_CREEP_BANDS, ChunkedRun, read_settled, settled_timestep)
@@ -142,12 +142,16 @@ class PlanarShearRun(ChunkedRun):
         n_bodies = self._write_fill_bodies(first_id=len(bottom) + 1, z_bottom=z_bottom)
         first_top_id = len(bottom) + n_bodies + self.case["n_grains"] + 1
         (self.run_dir / "top_wall.in").write_text(layer_include(top, 3, "${z_top_wall}", rho, first_id=first_top_id))
-        seeds = [liggghts_seed(self.seed, "size", str(k)) for k in range(self.mat["n_sizes"])]
-        (self.run_dir / "grains.in").write_text(
-            self.engine.grains_include(
-                d, self.mat["polydispersity"], self.mat["n_sizes"], rho, seeds, liggghts_seed(self.seed, "pdd")
+        adopted = self._adopted_packing(bottom, z_bottom, first_id=len(bottom) + n_bodies + 1)
+        if adopted is not None:
+            (self.run_dir / "grains.in").write_text(adopted["include"])
+        else:
+            seeds = [liggghts_seed(self.seed, "size", str(k)) for k in range(self.mat["n_sizes"])]
+            (self.run_dir / "grains.in").write_text(
+                self.engine.grains_include(
+                    d, self.mat["polydispersity"], self.mat["n_sizes"], rho, seeds, liggghts_seed(self.seed, "pdd")
+                )
             )
-        )
         variables = self._base_variables() | {
             "Lz_box": lz,
             "z_insert_low": z_bottom + max(sizes),
@@ -165,6 +169,9 @@ class PlanarShearRun(ChunkedRun):
         }
         # The engine's templates (a shared fill's folder may hold only LIGGGHTS's: pipeline.dem.shared_fill).
         self.engine.copy_templates(self.case["geometry"], self.run_dir)
+        if adopted is not None:
+            template = self.run_dir / "fill.in"
+            template.write_text(adopted_packing.without_pour(template.read_text(), self.engine.name, template))
         self.engine.render_stage(self.run_dir, "fill", "fill.in", variables)
         seconds = self.engine.launch(self.run_dir, "fill", self.label)
         ke = printed_value(self.run_dir / "logs" / "fill.log", "SETTLED_KE")
@@ -207,6 +214,8 @@ class PlanarShearRun(ChunkedRun):
             # A restart is its engine's own: a shared fill records which (lifecycle._adopt_fill checks).
             "engine": self.engine.name,
         }
+        if adopted is not None:
+            self.state["fill"]["packing_from"] = {"path": str(adopted["path"]), "sha256": adopted["sha256"]}
         self.state["wall_seconds"] += seconds
         self._save_state()
 
@@ -226,6 +235,23 @@ class PlanarShearRun(ChunkedRun):
         chunk length of the sheared runs they are compared with.
         """
         return self.wall_speed()
+
+    def _adopted_packing(self, bottom: Any, z_bottom: float, first_id: int) -> dict[str, Any] | None:
+        """``cases.<case>.packing_from``: the grains.in text placing another root's settled grains
+        of this run (:mod:`pipeline.dem.adopted_packing`), its source and digest; None to pour."""
+        root = self.case.get("packing_from")
+        if not root:
+            return None
+        if self.case["geometry"] != "planar_shear" or self.run_dir.name != self.run_id:
+            raise DEMRunError(f"{self.label}: cases.{self.case_name}.packing_from is for a planar case's own "
+                              "fills (not an intruder's, not a shared fill)")
+        path = adopted_packing.source_path(root, self.case_name, self.run_id)
+        if not path.is_file():
+            raise DEMRunError(f"{self.label}: cases.{self.case_name}.packing_from: no settled packing {path}")
+        settled = read_settled(path)
+        adopted_packing.check_source(settled, path, self.case["n_grains"], np.asarray(bottom.x), np.asarray(bottom.y))
+        return {"include": adopted_packing.packing_include(settled, first_id, self.mat["rho_s"]),
+                "path": path, "sha256": adopted_packing.sha256(path)}
 
     def _write_fill_bodies(self, first_id: int, z_bottom: float) -> int:
         """Hook: write include files for bodies created before the pour; return their atom count.
