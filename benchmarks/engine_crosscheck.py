@@ -164,10 +164,12 @@ def mu_s_of(root: Path) -> tuple[float, float]:
     return float(entry["value"]), float(entry["error"])
 
 
-def creep_at_mu_ratio(root: Path, case: str) -> dict[float, tuple[float, float]]:
+def creep_at_mu_ratio(root: Path, case: str, mu_s_from: Path | None = None) -> dict[float, tuple[float, float]]:
     """log10(u / V) of the replica mean at each of ``MU_RATIO_LEVELS`` of mu / mu_s, with its error
-    (module docstring), below the band (where mu / mu_s falls with depth) and where u > 2 errors."""
-    mu_s, mu_s_err = mu_s_of(root)
+    (module docstring), below the band (where mu / mu_s falls with depth) and where u > 2 errors.
+    mu_s is the root's own calibration's, or ``mu_s_from``'s (a root of the same engine and law
+    whose rheometer calibrated it, for a root that has none)."""
+    mu_s, mu_s_err = mu_s_of(mu_s_from if mu_s_from is not None else root)
     bed = bed_of(root, case)
     if bed is None or bed.wall_speed is None or not math.isfinite(mu_s):
         return {}

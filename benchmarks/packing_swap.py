@@ -13,7 +13,9 @@ bed height (top minus bottom contact plane), the settled gap before the wall's l
 height per chunk (``c_htop`` of the series) and the creep profile log10(u / V) at whole d. Then the
 two effects, each with the other held: the engine's (same pour, other shearer) and the pour's (same
 shearer, other pour), each a Welch t over the replicas for nu and the height, and a chi2 over the
-creep profile every 3 d (z per depth from the replica means' errors). A replica's series and fields
+creep profile every 3 d and at whole d (z per depth from the replica means' errors), and at equal
+mu / mu_s (engine_crosscheck.creep_at_mu_ratio, mu_s the shearer's own calibration's: the law is the
+engine's, whoever poured). A replica's series and fields
 are its own: the four replicas of a root are independent packings (seeds r1-r4, shared across roots).
 
 Usage: .venv/bin/python benchmarks/packing_swap.py [--liggghts R] [--lammps R] [--lammps-on-liggghts R]
@@ -33,7 +35,7 @@ from scipy import stats
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from engine_crosscheck import creep_profile  # noqa: E402
+from engine_crosscheck import creep_at_mu_ratio, creep_profile  # noqa: E402
 from pipeline.common.formats import open_fields  # noqa: E402
 
 CASE = "shear_gravity"
@@ -93,7 +95,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     cells = {("liggghts", "liggghts"): Path(args.liggghts), ("lammps", "lammps"): Path(args.lammps),
              ("lammps", "liggghts"): Path(args.lammps_on_liggghts), ("liggghts", "lammps"): Path(args.liggghts_on_lammps)}
-    data, creep = {}, {}
+    data, creep, at_mu = {}, {}, {}
     print(f"case {CASE}; per root the replicas' mean +- standard error (heights in d)")
     print(f"{'sheared by':>10} {'poured by':>10}  {'root':34} {'n':>2} {'bulk nu':>16} {'bed height':>14} "
           f"{'settled gap':>14}  htop at chunk {', '.join(str(c) for c in CHUNKS)}")
@@ -104,6 +106,8 @@ def main(argv: list[str] | None = None) -> int:
         reps = replicas(root)
         data[(shearer, pourer)] = reps
         creep[(shearer, pourer)] = creep_profile(root, CASE)
+        # mu_s is the shearer's law's: its own-pour root's rheometer calibrated it.
+        at_mu[(shearer, pourer)] = creep_at_mu_ratio(root, CASE, mu_s_from=cells[(shearer, shearer)])
         nu, nu_se = mean_se([r["nu"] for r in reps])
         h, h_se = mean_se([r["height"] for r in reps])
         g, g_se = mean_se([r["settled_gap"] for r in reps])
@@ -120,11 +124,26 @@ def main(argv: list[str] | None = None) -> int:
         if a not in data or b not in data:
             return
         print(f"\n{label}: ({b[0]} sheared, {b[1]} poured) - ({a[0]} sheared, {a[1]} poured)")
+        paired = [r["run"] for r in data[a]] == [r["run"] for r in data[b]]
         for q in ("nu", "height", "settled_gap"):
             diff, t, p = welch([r[q] for r in data[a]], [r[q] for r in data[b]])
-            print(f"  {q:12} {diff:+.4f}  Welch t {t:+.2f}, p {p:.3g}")
+            line = f"  {q:12} {diff:+.4f}  Welch t {t:+.2f}, p {p:.3g}"
+            if paired and a[1] == b[1]:
+                # The same pour: replica k starts from the same packing in both, so the pairs are matched.
+                pairs = [rb[q] - ra[q] for ra, rb in zip(data[a], data[b])]
+                tp, pp = stats.ttest_1samp(pairs, 0.0)
+                line += f"; paired by replica {', '.join(f'{v:+.4f}' for v in pairs)}: t {tp:+.2f}, p {pp:.3g}"
+            print(line)
         chi2, dof, p, text = creep_chi2(creep[a], creep[b])
         print(f"  creep every 3 d: chi2 {chi2:.2f} / {dof}, p {p:.3g}; " + "; ".join(text))
+        chi2, dof, p, text = creep_chi2(creep[a], creep[b], step=1)
+        print(f"  creep at whole d: chi2 {chi2:.2f} / {dof}, p {p:.3g}")
+        levels = sorted(set(at_mu[a]) & set(at_mu[b]))
+        z = [(at_mu[b][x][0] - at_mu[a][x][0]) / math.hypot(at_mu[a][x][1], at_mu[b][x][1]) for x in levels]
+        if levels:
+            chi2 = float(np.sum(np.square(z)))
+            print(f"  creep at equal mu / mu_s ({levels[0]:.2f}-{levels[-1]:.2f}, each shearer's own mu_s): chi2 {chi2:.2f} / "
+                  f"{len(levels)}, p {stats.chi2.sf(chi2, len(levels)):.3g}; largest |z| {max(abs(v) for v in z):.1f}")
 
     effect("The engine's effect, LIGGGHTS's pour", ("liggghts", "liggghts"), ("lammps", "liggghts"))
     effect("The engine's effect, LAMMPS's pour", ("liggghts", "lammps"), ("lammps", "lammps"))

@@ -1,0 +1,109 @@
+"""Benchmark (issue 57, item 1): the 2D plastic intruder solves' two savings, each against the code
+it replaced, side by side in one process (alternating, CPU seconds by time.process_time; never a test):
+
+1. ``warm``: a parameter draw of the volume-averaged model started from the nominal solution's last
+   three regularisation stages (``yield2d.WARM_STAGES_AVERAGED``) against the last two, which
+   stalled at eps = 1e-4 V/d and restarted cold on the default's scenes;
+2. ``lu``: each stage's first Newton step factorising its Jacobian at once (``FRESH_LU_PER_STAGE``)
+   and GMRES's preconditioner given its dtype, against reusing the last stage's LU (GMRES then
+   failed its 30 iterations at every stage's first step) with a dtype probe per call.
+
+Per solve: CPU seconds old and new, their ratio, Newton iterations and the relative change of U
+(the stages' tolerance is a scaled residual of 1e-6). Scenes are ``intruder_solve.py``'s (the
+default's bed at 3 cells per d); the draw is that benchmark's first draw of seed 43.
+
+Run: ``nice -n 5 python benchmarks/plastic_warm_start.py [--parts warm lu] [--scenes 1 5] [--repeats 2]``
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from scipy.sparse.linalg import LinearOperator
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import intruder_solve as bench  # noqa: E402
+from continuum.intruder import INTRUDER_MODELS, GridOptions  # noqa: E402
+from continuum.intruder import yield2d  # noqa: E402
+
+CELLS_PER_D = 3.0
+_rng = np.random.default_rng(43)
+DRAW = {k: bench.NOMINAL[k] + bench.ERRORS[k] * _rng.standard_normal() for k in bench.NOMINAL if k != "l_cosserat"}
+
+
+def solve(model: str, values: dict[str, float], scene: tuple, warm: dict[str, Any] | None = None) -> tuple[Any, float]:
+    """The solution and its CPU seconds."""
+    t0 = time.process_time()
+    solver = INTRUDER_MODELS[model].solver(bench.GEO, bench.parameters(model, values), bench.LX, bench.rod(*scene),
+                                           GridOptions(cells_per_d=CELLS_PER_D))
+    return solver.solve(warm), time.process_time() - t0
+
+
+def _probing_operator(shape: tuple[int, int], matvec: Any, dtype: Any = None) -> LinearOperator:
+    return LinearOperator(shape, matvec=matvec)  # as before: scipy probes the dtype by one solve
+
+
+def set_lu(new: bool) -> None:
+    yield2d.FRESH_LU_PER_STAGE = new
+    yield2d.LinearOperator = LinearOperator if new else _probing_operator
+
+
+def part_warm(scenes: list[int], repeats: int) -> tuple[float, float]:
+    new_stages, totals = yield2d.WARM_STAGES_AVERAGED, {2: 0.0, yield2d.WARM_STAGES_AVERAGED: 0.0}
+    for k in scenes:
+        nominal, cpu = solve("volume_averaged", bench.NOMINAL, bench.SCENES[k])
+        print(f"volume_averaged scene {k} {bench.SCENES[k]}: nominal {cpu:.1f} s, U {nominal.speed:.6g} m/s")
+        got: dict[int, list] = {2: [], new_stages: []}
+        for _ in range(repeats):
+            for stages in (2, new_stages):
+                yield2d.WARM_STAGES_AVERAGED = stages
+                sol, cpu = solve("volume_averaged", DRAW, bench.SCENES[k], nominal.state)
+                got[stages].append((cpu, sol.speed, sol.iterations))
+                totals[stages] += cpu
+        yield2d.WARM_STAGES_AVERAGED = new_stages
+        old, new = np.mean([g[0] for g in got[2]]), np.mean([g[0] for g in got[new_stages]])
+        print(f"  draw from the last 2 stages {old:6.1f} s ({got[2][0][2]} it), from the last {new_stages} {new:6.1f} s "
+              f"({got[new_stages][0][2]} it): ratio {old / new:.2f}; |dU| / U {abs(got[new_stages][0][1] / got[2][0][1] - 1):.1e}")
+    return totals[2], totals[new_stages]
+
+
+def part_lu(scenes: list[int], repeats: int) -> tuple[float, float]:
+    totals = {False: 0.0, True: 0.0}
+    for model in ("volume_averaged", "critical_state"):
+        for k in scenes:
+            got: dict[bool, list] = {False: [], True: []}
+            for _ in range(repeats):
+                for new in (False, True):
+                    set_lu(new)
+                    nominal, c1 = solve(model, bench.NOMINAL, bench.SCENES[k])
+                    draw, c2 = solve(model, DRAW, bench.SCENES[k], nominal.state)
+                    got[new].append((c1 + c2, nominal.speed, draw.speed))
+                    totals[new] += c1 + c2
+            old, new_ = np.mean([g[0] for g in got[False]]), np.mean([g[0] for g in got[True]])
+            du = max(abs(got[True][0][i] / got[False][0][i] - 1) for i in (1, 2))
+            print(f"{model} scene {k}: nominal + warm draw, last stage's LU {old:6.1f} s, fresh per stage {new_:6.1f} s: "
+                  f"ratio {old / new_:.3f}; |dU| / U {du:.1e}")
+    set_lu(True)
+    return totals[False], totals[True]
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--parts", nargs="+", choices=["warm", "lu"], default=["warm", "lu"])
+    parser.add_argument("--scenes", nargs="+", type=int, default=[1, 5], help="indices into intruder_solve.SCENES")
+    parser.add_argument("--repeats", type=int, default=2)
+    args = parser.parse_args(argv)
+    for part in args.parts:
+        old, new = (part_warm if part == "warm" else part_lu)(args.scenes, args.repeats)
+        print(f"== {part}: CPU s old {old:.1f}, new {new:.1f}, ratio {old / new:.2f}\n")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
