@@ -86,7 +86,9 @@ def part_lu(scenes: list[int], repeats: int) -> tuple[float, float]:
                     got[new].append((c1 + c2, nominal.speed, draw.speed))
                     totals[new] += c1 + c2
             old, new_ = np.mean([g[0] for g in got[False]]), np.mean([g[0] for g in got[True]])
-            du = max(abs(got[True][0][i] / got[False][0][i] - 1) for i in (1, 2))
+            # relative change of U (a rigid rod's U is 0 in both: no change)
+            du = max(abs(got[True][0][i] - got[False][0][i]) / abs(got[False][0][i]) if got[False][0][i] else
+                     abs(got[True][0][i]) for i in (1, 2))
             print(f"{model} scene {k}: nominal + warm draw, last stage's LU {old:6.1f} s, fresh per stage {new_:6.1f} s: "
                   f"ratio {old / new_:.3f}; |dU| / U {du:.1e}")
     set_lu(True)
