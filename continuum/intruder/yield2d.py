@@ -53,16 +53,6 @@ RIGID_SLOPE = 0.9
 #: rod runs away at eps = 1e-3 V/d; cold it converges), so the volume-averaged model's finer grid
 #: starts cold.
 REGRID_STAGES = 3
-#: Stages of a start from a solution on the same grid (a parameter draw from the nominal
-#: solution): the last two for the local laws; the last three for the averaged flow rule (l > 0),
-#: whose draws change l and so B = D - l^2 lap D by more than the sharp stages' eps in the rigid
-#: zones next to the plastic ones. Measured (2026-12-06, default bed at 3 cells per d, a draw of
-#: seed 43 from the nominal solution): from the last two stages the volume-averaged draw stalled
-#: at eps = 1e-4 V/d (residual 3 for 12 iterations) and restarted cold, 21-26 CPU s; from the last
-#: three (the nominal's eps = 1e-4 V/d state at eps = 1e-3 V/d) it converged in 31-36 iterations,
-#: 9.5-10.3 CPU s, U equal to the cold solve's within 1e-13. Critical state, from the last three:
-#: 29-33 iterations where the last two take 14-16, so the local laws keep two.
-WARM_STAGES_AVERAGED = 3
 #: Largest change of any velocity (the rod's included) in one Newton step, over V: the trust
 #: region of ``_newton``. Measured (2026-12-05) on the volume-averaged rod of the reduced run's
 #: 6.76 d scene: without it a Newton step at eps = 1.8e-5 V/d threw U from 0.097 m/s to 4e3 m/s
@@ -209,11 +199,6 @@ class YieldRodSolver(RodSolver):
     state_keys: tuple[str, ...] = ("u", "w", "pi", "U")
 
     @property
-    def warm_stages(self) -> int:
-        """Stages run from a warm start on the same grid (``WARM_STAGES_AVERAGED``)."""
-        return 2 if self.law.length == 0.0 else WARM_STAGES_AVERAGED
-
-    @property
     def regrids(self) -> bool:
         """Whether a state on another grid of the cell is carried onto this one (``REGRID_STAGES``)."""
         return self.law.length == 0.0
@@ -324,11 +309,11 @@ class YieldRodSolver(RodSolver):
                                 self.geometry.wall_speed, self.ops.slip_length)
             first = max(len(stages) - REGRID_STAGES, 0)
         elif usable:
-            first = max(len(stages) - self.warm_stages, 0)  # at least two: the limit is read from their U
+            first = max(len(stages) - 2, 0)  # two stages: the limit is read from their U
             previous = warm.get("y_previous_stage")
             if previous is not None and previous.size == disc.n and first < len(stages) - 1:
-                # the warm solution's own state at the stage before its last: the draw's first stage
-                # then starts at that regularisation (or a smoother one), not from the sharper last one
+                # the warm solution's own state at this first stage's eps: the draw's first stage
+                # then starts at its own regularisation, not from the sharper last one
                 return previous.copy(), stages[first:]
         else:
             return self._initial(planar, disc), stages
