@@ -44,6 +44,12 @@ CASE = "shear_gravity"
 CHUNKS = (0, 3, 15, -1)
 
 
+def htop_per_chunk(run_dir: Path, d: float, kinds: tuple[str, ...] = ("shear", "production")) -> list[float]:
+    """The top wall's mean height (the series' c_htop, in d) over each chunk of ``kinds``, in order."""
+    files = [f for kind in kinds for f in sorted((run_dir / "series").glob(f"{kind}_*.txt"))]
+    return [float(np.loadtxt(f, comments="#", ndmin=2)[:, 6].mean()) / d for f in files]
+
+
 def replicas(root: Path) -> list[dict[str, float]]:
     """Per replica: bulk nu and its error, bed height / d, settled gap / d, c_htop / d per chunk."""
     out = []
@@ -55,8 +61,7 @@ def replicas(root: Path) -> list[dict[str, float]]:
         run_dir = root / "dem" / CASE / path.stem
         state = json.loads((run_dir / "state.json").read_text())  # the lifecycle's, with the fill's record
         row["settled_gap"] = state["fill"]["settled_gap"] / d
-        chunks = sorted((run_dir / "series").glob("shear_*.txt")) + sorted((run_dir / "series").glob("production_*.txt"))
-        htop = [float(np.loadtxt(f, comments="#", ndmin=2)[:, 6].mean()) / d for f in chunks]
+        htop = htop_per_chunk(run_dir, d)
         row["htop"] = [htop[k] for k in CHUNKS] if len(htop) > max(CHUNKS) else []
         row["packing_from"] = (state["fill"].get("packing_from") or {}).get("path", "own pour")
         out.append(row)

@@ -23,17 +23,13 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from pipeline.common.config import load_config, run_config  # noqa: E402
 from pipeline.dem.planar_run import PlanarShearRun  # noqa: E402
+from packing_swap import htop_per_chunk  # noqa: E402
 
 CASE = "shear_gravity"
-
-
-def htop_per_chunk(run_dir: Path, d: float, chunks: int) -> list[float]:
-    """The top wall's mean height (c_htop, in d) over each of the first ``chunks`` shear chunks."""
-    files = sorted((run_dir / "series").glob("shear_*.txt"))[:chunks]
-    return [float(np.loadtxt(f, comments="#", ndmin=2)[:, 6].mean()) / d for f in files]
 
 
 def pour_and_shear(config_path: str, run: str, out: str, fraction: float, chunks: int) -> tuple[str, float, list[float]]:
@@ -49,7 +45,7 @@ def pour_and_shear(config_path: str, run: str, out: str, fraction: float, chunks
     for k in range(len(runner.state["chunks"]), chunks):
         runner._run_chunk("shear", k, plan)
     d = float(runner.mat["d"])
-    return run, runner.state["fill"]["settled_gap"] / d, htop_per_chunk(runner.run_dir, d, chunks)
+    return run, runner.state["fill"]["settled_gap"] / d, htop_per_chunk(runner.run_dir, d, ("shear",))[:chunks]
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -75,7 +71,7 @@ def main(argv: list[str] | None = None) -> int:
 
     line(f"LIGGGHTS pour at loose fraction {args.fraction:g} (this run)", [h for _, _, h in done])
     for root in args.roots:
-        rows = [htop_per_chunk(Path(root) / "dem" / CASE / run, 0.002, args.chunks) for run in args.runs]
+        rows = [htop_per_chunk(Path(root) / "dem" / CASE / run, 0.002, ("shear",))[:args.chunks] for run in args.runs]
         if all(len(r) == args.chunks for r in rows):
             line(root, rows)
     print("settled gap / d (this run):", ", ".join(f"{run} {g:.2f}" for run, g, _ in done))

@@ -21,6 +21,7 @@ import numpy as np
 import pandas as pd
 
 from pipeline.dem.liggghts_log import DEMRunError
+from pipeline.dem.rough_wall import single_grains_include
 
 #: The atom types of the planar fill (liggghts_inputs/planar_shear/fill.in): flowing grains, bottom wall.
 FLOWING_TYPE, BOTTOM_WALL_TYPE = 1, 2
@@ -42,13 +43,9 @@ def packing_include(settled: pd.DataFrame, first_id: int, rho_s: float) -> str:
     diameters (m) and density ``rho_s`` (kg/m^3), then adding them to group ``flow`` (a group
     defined before the grains existed does not hold them)."""
     grains = settled[settled["type"] == FLOWING_TYPE].sort_values("id")
-    lines = [f"create_atoms {FLOWING_TYPE} single {float(x)!r} {float(y)!r} {float(z)!r} units box"
-             for x, y, z in zip(grains["x"], grains["y"], grains["z"])]
-    for k, radius in enumerate(grains["radius"]):
-        lines.append(f"set atom {first_id + k} diameter {2.0 * float(radius)!r}")
-        lines.append(f"set atom {first_id + k} density {float(rho_s)!r}")
-    lines.append(f"group flow type {FLOWING_TYPE}")
-    return "\n".join(lines) + "\n"
+    return (single_grains_include(FLOWING_TYPE, grains["x"], grains["y"], grains["z"].tolist(),
+                                  2.0 * grains["radius"], rho_s, first_id)
+            + f"group flow type {FLOWING_TYPE}\n")
 
 
 def check_source(settled: pd.DataFrame, path: Path, n_grains: int, bottom_x: np.ndarray,

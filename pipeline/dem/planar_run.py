@@ -30,7 +30,7 @@ from pipeline.dem.engines.liggghts import Launcher, _mpi_environment, run_ligggh
 from pipeline.dem.lifecycle import (FILL_FILES, FILL_RECORD, OPTIONAL_FILL_FILES, START_RESTART,  # noqa: F401
                                     STEADY_CREEP_BANDS, ChunkedRun, read_settled, settled_timestep)
 from pipeline.dem.liggghts_log import DEMRunError, printed_value
-from pipeline.dem.rough_wall import layer_include, random_layer
+from pipeline.dem.rough_wall import WallLayer, layer_include, random_layer
 from pipeline.dem.steady_state import balance_test, drift_test
 from pipeline.dem.wall_series import PAIRSUM_COLUMNS, read_wall_series
 
@@ -142,7 +142,7 @@ class PlanarShearRun(ChunkedRun):
         n_bodies = self._write_fill_bodies(first_id=len(bottom) + 1, z_bottom=z_bottom)
         first_top_id = len(bottom) + n_bodies + self.case["n_grains"] + 1
         (self.run_dir / "top_wall.in").write_text(layer_include(top, 3, "${z_top_wall}", rho, first_id=first_top_id))
-        adopted = self._adopted_packing(bottom, z_bottom, first_id=len(bottom) + n_bodies + 1)
+        adopted = self._adopted_packing(bottom, first_id=len(bottom) + n_bodies + 1)
         if adopted is not None:
             (self.run_dir / "grains.in").write_text(adopted["include"])
         else:
@@ -236,7 +236,7 @@ class PlanarShearRun(ChunkedRun):
         """
         return self.wall_speed()
 
-    def _adopted_packing(self, bottom: Any, z_bottom: float, first_id: int) -> dict[str, Any] | None:
+    def _adopted_packing(self, bottom: WallLayer, first_id: int) -> dict[str, Any] | None:
         """``cases.<case>.packing_from``: the grains.in text placing another root's settled grains
         of this run (:mod:`pipeline.dem.adopted_packing`), its source and digest; None to pour."""
         root = self.case.get("packing_from")
@@ -249,7 +249,7 @@ class PlanarShearRun(ChunkedRun):
         if not path.is_file():
             raise DEMRunError(f"{self.label}: cases.{self.case_name}.packing_from: no settled packing {path}")
         settled = read_settled(path)
-        adopted_packing.check_source(settled, path, self.case["n_grains"], np.asarray(bottom.x), np.asarray(bottom.y))
+        adopted_packing.check_source(settled, path, self.case["n_grains"], bottom.x, bottom.y)
         return {"include": adopted_packing.packing_include(settled, first_id, self.mat["rho_s"]),
                 "path": path, "sha256": adopted_packing.sha256(path)}
 

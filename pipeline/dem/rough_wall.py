@@ -9,6 +9,7 @@ disk: a jammed layer, about 55 % area coverage, with no hole a grain can squeeze
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -96,8 +97,18 @@ def layer_include(layer: WallLayer, atom_type: int, z: float | str, rho_s: float
     present): diameters and densities are set per grain by id.
     """
     z_text = repr(float(z)) if not isinstance(z, str) else z
-    lines = [f"create_atoms {atom_type} single {float(x)!r} {float(y)!r} {z_text} units box" for x, y in zip(layer.x, layer.y)]
-    for k, dia in enumerate(layer.diameter):
+    return single_grains_include(atom_type, layer.x, layer.y, [z_text] * len(layer.x), layer.diameter, rho_s, first_id)
+
+
+def single_grains_include(atom_type: int, x: Sequence[float], y: Sequence[float], z: Sequence[float | str],
+                          diameters: Sequence[float], rho_s: float, first_id: int) -> str:
+    """Engine commands (LIGGGHTS and LAMMPS read them alike) creating one grain of ``atom_type`` at
+    each centre (m; a ``z`` may be engine text evaluated on inclusion), then setting each one's
+    diameter (m) and density ``rho_s`` (kg/m^3) by id, from ``first_id`` (one more than the largest
+    id present) in the order given."""
+    z_texts = [v if isinstance(v, str) else repr(float(v)) for v in z]
+    lines = [f"create_atoms {atom_type} single {float(xi)!r} {float(yi)!r} {zi} units box" for xi, yi, zi in zip(x, y, z_texts)]
+    for k, dia in enumerate(diameters):
         lines.append(f"set atom {first_id + k} diameter {float(dia)!r}")
         lines.append(f"set atom {first_id + k} density {float(rho_s)!r}")
     return "\n".join(lines) + "\n"
