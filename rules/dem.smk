@@ -1,10 +1,10 @@
-# DEM: one LIGGGHTS run per case and run id (pipeline.dem), and the fills several runs start from
+# DEM: one engine run (LIGGGHTS, or LAMMPS with dem.engine) per case and run id (pipeline.dem), and the fills several runs start from
 # (a rheometer replica's states, an intruder run and its control: pipeline/dem/shared_fill.py).
 
 
 rule dem_fill:
     message:
-        "LIGGGHTS shared fill {wildcards.case}/{wildcards.fill}"
+        f"Shared fill ({config['dem'].get('engine', 'liggghts')}) {{wildcards.case}}/{{wildcards.fill}}"
     conda:
         ENV
     input:

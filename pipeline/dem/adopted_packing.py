@@ -2,7 +2,8 @@
 
 ``cases.<case>.packing_from: <root>`` (a study switch, issue 56): the fill does not pour; it creates
 the flowing grains of ``<root>/dem/<case>/<run>/settled.dump`` (the other run's packing at rest,
-its top wall not yet laid) at their positions with their diameters and densities, at rest, then
+its top wall not yet laid; for runs sharing a fill, the rheometer's states of one replica, that of
+``<root>/dem/<case>/fill-r<k>/``) at their positions with their diameters and densities, at rest, then
 settles, lays the top wall and shears exactly as a poured fill does. With the two roots in two
 engines, each engine shears the packing the other poured: whether a difference between the
 engines' beds is made by the pour or by the shear.
@@ -32,9 +33,10 @@ WALL_MATCH_TOLERANCE = 1e-7
 LIGGGHTS_POUR_LINES = (("fix", "ins"), ("unfix", "ins"))
 
 
-def source_path(root: str | Path, case_name: str, run: str) -> Path:
-    """Where the other root keeps the settled packing of the same run."""
-    return Path(root) / "dem" / case_name / run / "settled.dump"
+def source_path(root: str | Path, case_name: str, packing: str) -> Path:
+    """Where the other root keeps the settled packing ``packing``: a run's own fill (its run id) or
+    a shared fill (``fill-r<k>``, the rheometer's states of replica k)."""
+    return Path(root) / "dem" / case_name / packing / "settled.dump"
 
 
 def packing_include(settled: pd.DataFrame, first_id: int, rho_s: float) -> str:

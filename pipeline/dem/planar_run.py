@@ -242,10 +242,13 @@ class PlanarShearRun(ChunkedRun):
         root = self.case.get("packing_from")
         if not root:
             return None
-        if self.case["geometry"] != "planar_shear" or self.run_dir.name != self.run_id:
-            raise DEMRunError(f"{self.label}: cases.{self.case_name}.packing_from is for a planar case's own "
-                              "fills (not an intruder's, not a shared fill)")
-        path = adopted_packing.source_path(root, self.case_name, self.run_id)
+        # The packing this run shears: its shared fill's (the rheometer's states of one replica),
+        # whether poured here as that fill or by the run alone from the fill's seed; else its own.
+        packing = shared_fill_of(self.case_name, self.case, self.run_id) or self.run_id
+        if self.case["geometry"] != "planar_shear" or self.run_dir.name not in (packing, self.run_id):
+            raise DEMRunError(f"{self.label}: cases.{self.case_name}.packing_from is for a planar case's fills "
+                              f"(its own or its replica's shared fill), not for {self.run_dir.name}")
+        path = adopted_packing.source_path(root, self.case_name, packing)
         if not path.is_file():
             raise DEMRunError(f"{self.label}: cases.{self.case_name}.packing_from: no settled packing {path}")
         settled = read_settled(path)

@@ -107,3 +107,23 @@ def test_each_engine_keeps_the_other_engines_settled_packing_at_rest(tmp_path: P
     assert np.percentile(shift[buried], 95) < 0.005 * d, f"95 % shift {np.percentile(shift[buried], 95) / d:.4f} d"
     assert shift[buried].max() < 0.1 * d, f"largest shift below the surface layer {shift[buried].max() / d:.4f} d"
     assert abs(dz.mean()) < 0.005 * d, f"the bed's mean height moved by {dz.mean() / d:.4f} d"
+
+
+@pytest.mark.parametrize("run_dir_name", ["fill-r1", "I0.07-P600-r1"])
+def test_the_rheometers_states_adopt_their_replicas_shared_fill(tmp_path: Path, run_dir_name: str) -> None:
+    """The rheometer's states of one replica share a fill: poured as ``fill-r1`` (the workflow) or by
+    a state alone from the fill's seed, its source is the other root's ``fill-r1``, never a state's
+    own folder (a state adopting a fill has none of its own pour)."""
+    config = run_config(load_config(CI), "rheometer", "I0.07-P600-r1")
+    config["cases"]["rheometer"]["packing_from"] = str(tmp_path / "other")
+    run = PlanarShearRun(config, "rheometer", "I0.07-P600-r1", tmp_path / "dem" / "rheometer" / run_dir_name)
+    with pytest.raises(DEMRunError, match=r"no settled packing .*other/dem/rheometer/fill-r1/settled.dump"):
+        run._adopted_packing(None, first_id=1)
+
+
+def test_a_folder_that_is_neither_the_run_nor_its_fill_is_refused(tmp_path: Path) -> None:
+    config = run_config(load_config(CI), "rheometer", "I0.07-P600-r1")
+    config["cases"]["rheometer"]["packing_from"] = str(tmp_path / "other")
+    run = PlanarShearRun(config, "rheometer", "I0.07-P600-r1", tmp_path / "dem" / "rheometer" / "fill-r2")
+    with pytest.raises(DEMRunError, match=r"packing_from is for a planar case's fills .* not for fill-r2"):
+        run._adopted_packing(None, first_id=1)
