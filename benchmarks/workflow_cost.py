@@ -23,15 +23,20 @@ and its end from that file's modification time (written when the job ends), so i
 end less its seconds; from them the wall time (first start to last end), the slot-seconds by rule
 and case, the **busy fraction** (slot-seconds over slots x wall time) and how long 0, 1, 2, ... jobs
 ran at once, with the idle stretch at the end (the last time fewer jobs than slots ran, to the end).
+Then issue 57's item 4: the wall time against 1.05 x (the DEM jobs' slot-seconds / slots) plus the
+tail after the last DEM job, and the DEM's particle-steps per slot-second of its jobs, beside the
+engines' own rate inside their ``run`` loops (``Loop time`` lines of the root's DEM logs) and, with
+``--bare M``, the engine's rate alone on the same bed (``benchmarks/engine_speed.py``).
 
 Usage: ``python benchmarks/workflow_cost.py --fixed /work/results-default --targeted results``,
-``python benchmarks/workflow_cost.py --timeline results [--slots 2]``
+``python benchmarks/workflow_cost.py --timeline results [--slots 2] [--bare 4.95]``
 """
 from __future__ import annotations
 
 import argparse
 import json
 import math
+import re
 import sys
 from pathlib import Path
 
@@ -193,7 +198,7 @@ def concurrency(jobs: pd.DataFrame) -> pd.Series:
     return pd.Series(held).sort_index()
 
 
-def print_timeline(root: Path, slots: int) -> None:
+def print_timeline(root: Path, slots: int, bare: float | None = None) -> None:
     """The slots' use of one finished workflow run (module docstring)."""
     jobs = job_timeline(root)
     wall = float(jobs["end"].max() - jobs["start"].min())
@@ -220,6 +225,45 @@ def print_timeline(root: Path, slots: int) -> None:
           + "; ".join(f"{r.rule} {r.case}/{r.job} {r.seconds:.0f} s" for r in tail.itertuples()))
     last_dem = float(jobs.loc[dem, "end"].max()) if dem.any() else float("nan")
     print(f"from the last DEM job's end to the last job's: {end - last_dem:.0f} s")
+    print_dem_speed(root, jobs, slots, wall, end - last_dem, bare)
+
+
+#: A LIGGGHTS or LAMMPS log's timing of one ``run`` command.
+_LOOP = re.compile(r"^Loop time of (\S+) on (\d+) procs for (\d+) steps with (\d+) atoms", re.MULTILINE)
+
+
+def engine_loops(root: Path) -> tuple[float, float]:
+    """Particle-steps and core-seconds inside the engines' own ``run`` loops, from every DEM log of
+    ``root`` (runs and shared fills; the loop time is wall time x processes)."""
+    steps = seconds = 0.0
+    for log in sorted((root / "dem").glob("*/*/logs/*.log")):
+        for t, procs, n_steps, atoms in _LOOP.findall(log.read_text(errors="replace")):
+            steps += float(n_steps) * float(atoms)
+            seconds += float(t) * float(procs)
+    return steps, seconds
+
+
+def print_dem_speed(root: Path, jobs: pd.DataFrame, slots: int, wall: float, tail: float, bare: float | None) -> None:
+    """Issue 57, item 4: the wall against 1.05 x the DEM's slot-seconds over the slots plus the tail
+    after the last DEM job, and the DEM's particle-steps per slot-second (the jobs' own seconds x
+    their ranks) against the engine's inside its loops and, with ``bare``, alone on the same bed."""
+    runs = run_costs(root)
+    ranks = {(r["case"], r["run"]): json.loads(p.read_text()).get("mpi_ranks", 1)
+             for p in (root / "dem").glob("*/*/run.json") for r in [json.loads(p.read_text())]}
+    dem = jobs[jobs["rule"].isin(("dem", "dem_fill"))]
+    slot_s = float(sum(row.seconds * ranks.get((row.case, row.job), 1) for row in dem.itertuples()))
+    bound = 1.05 * slot_s / slots + tail
+    print(f"DEM jobs (runs and shared fills): {len(dem)}, {slot_s:.0f} slot-seconds; wall {wall:.0f} s against "
+          f"1.05 x {slot_s:.0f} / {slots} + {tail:.0f} s tail = {bound:.0f} s: ratio {wall / bound:.3f} "
+          f"({'met' if wall <= bound else 'not met'})")
+    steps = float(runs["particle_steps"].sum())
+    loop_steps, loop_seconds = engine_loops(root)
+    job_rate, loop_rate = steps / slot_s, loop_steps / loop_seconds
+    line = (f"DEM: {steps:.3g} particle-steps, {job_rate / 1e6:.2f} M per slot-second of its jobs; inside the engines' "
+            f"loops {loop_steps:.3g} particle-steps at {loop_rate / 1e6:.2f} M per core-second (jobs / loops {job_rate / loop_rate:.3f})")
+    if bare is not None:
+        line += f"; against the engine alone on the same bed ({bare:.2f} M): jobs {job_rate / 1e6 / bare:.3f}, loops {loop_rate / 1e6 / bare:.3f}"
+    print(line)
 
 
 def load_bill(path: Path) -> dict[str, object]:
@@ -258,9 +302,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--save-bill", type=Path, metavar="FILE.json", help="also write the targeted root's bill (per-run costs, noise) here")
     parser.add_argument("--timeline", type=Path, metavar="ROOT", help="instead: the slots' use of one finished run (busy fraction)")
     parser.add_argument("--slots", type=int, default=2, help="with --timeline: jobs the run kept at once (--cores; default 2)")
+    parser.add_argument("--bare", type=float, metavar="M",
+                        help="with --timeline: the engine's particle-steps per core-second alone on the same bed, in "
+                             "millions (benchmarks/engine_speed.py on one of the root's runs), for the DEM's ratio to it")
     args = parser.parse_args(argv)
     if args.timeline is not None:
-        print_timeline(args.timeline, args.slots)
+        print_timeline(args.timeline, args.slots, args.bare)
         return 0
     if args.fixed is None or args.targeted is None:
         parser.error("give --fixed and --targeted (or --timeline ROOT)")
