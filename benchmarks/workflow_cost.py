@@ -237,6 +237,9 @@ def engine_loops(root: Path) -> tuple[float, float]:
     ``root`` (runs and shared fills; the loop time is wall time x processes)."""
     steps = seconds = 0.0
     for log in sorted((root / "dem").glob("*/*/logs/*.log")):
+        state = log.parent.parent / "state.json"
+        if log.name == "fill.log" and state.exists() and json.loads(state.read_text()).get("fill", {}).get("shared"):
+            continue  # a shared fill's log, copied into each run that adopted it: counted in the fill's folder
         for t, procs, n_steps, atoms in _LOOP.findall(log.read_text(errors="replace")):
             steps += float(n_steps) * float(atoms)
             seconds += float(t) * float(procs)
@@ -247,10 +250,15 @@ def print_dem_speed(root: Path, jobs: pd.DataFrame, slots: int, wall: float, tai
     """Issue 57, item 4: the wall against 1.05 x the DEM's slot-seconds over the slots plus the tail
     after the last DEM job, and the DEM's particle-steps per slot-second (the jobs' own seconds x
     their ranks) against the engine's inside its loops and, with ``bare``, alone on the same bed."""
+    records = [json.loads(p.read_text()) for pattern in ("*/*/run.json", "*/fill-*/fill.json")
+               for p in sorted((root / "dem").glob(pattern))]
+    if not records:
+        print("DEM: no finished runs (dem/*/*/run.json): no DEM speed to report")
+        return
     runs = run_costs(root)
-    ranks = {(r["case"], r["run"]): json.loads(p.read_text()).get("mpi_ranks", 1)
-             for p in (root / "dem").glob("*/*/run.json") for r in [json.loads(p.read_text())]}
-    dem = jobs[jobs["rule"].isin(("dem", "dem_fill"))]
+    ranks = {(r["case"], r["run"]): r.get("mpi_ranks", 1) for r in records}
+    # (both rules, runs and shared fills, keep their benchmark files under benchmarks/dem/)
+    dem = jobs[jobs["rule"] == "dem"]
     slot_s = float(sum(row.seconds * ranks.get((row.case, row.job), 1) for row in dem.itertuples()))
     bound = 1.05 * slot_s / slots + tail
     print(f"DEM jobs (runs and shared fills): {len(dem)}, {slot_s:.0f} slot-seconds; wall {wall:.0f} s against "
@@ -258,6 +266,9 @@ def print_dem_speed(root: Path, jobs: pd.DataFrame, slots: int, wall: float, tai
           f"({'met' if wall <= bound else 'not met'})")
     steps = float(runs["particle_steps"].sum())
     loop_steps, loop_seconds = engine_loops(root)
+    if slot_s <= 0.0 or loop_seconds <= 0.0:
+        print(f"DEM: {steps:.3g} particle-steps, but no DEM benchmark files or no engine timing in its logs: no rate")
+        return
     job_rate, loop_rate = steps / slot_s, loop_steps / loop_seconds
     line = (f"DEM: {steps:.3g} particle-steps, {job_rate / 1e6:.2f} M per slot-second of its jobs; inside the engines' "
             f"loops {loop_steps:.3g} particle-steps at {loop_rate / 1e6:.2f} M per core-second (jobs / loops {job_rate / loop_rate:.3f})")

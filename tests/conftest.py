@@ -56,6 +56,7 @@ class BackgroundWorkflow:
     fixture: str                             # the fixture that returns its output root
     folder: str                              # its temporary folder's name
     command: Callable[[Path], list[str]]
+    engine: Path | str                       # the DEM binary it needs (a name on PATH, or a path)
     #: Added to the process's nice value (inherited by the engines it starts). The LAMMPS workflow
     #: runs at 10: only its own tests wait for it, while the SLURM rerun and every test of the
     #: reduced workflow wait for the reduced one, so it takes the cycles that one and the unit tests
@@ -64,8 +65,13 @@ class BackgroundWorkflow:
 
 
 #: In the order their tests run, last the one the most tests wait for.
-BACKGROUND = (BackgroundWorkflow("lammps_results", "reduced_lammps", _lammps_command, 10),
-              BackgroundWorkflow("reduced_results", "reduced", _reduced_command, 0))
+BACKGROUND = (BackgroundWorkflow("lammps_results", "reduced_lammps", _lammps_command, Path(sys.executable).parent / "lmp", 10),
+              BackgroundWorkflow("reduced_results", "reduced", _reduced_command, "liggghts", 0))
+
+
+def _missing(flow: BackgroundWorkflow) -> bool:
+    """Whether the engine ``flow`` runs is absent (its fixture then fails its tests with the reason)."""
+    return shutil.which(str(flow.engine)) is None
 #: The workflows started: fixture name -> ``out`` (output root), ``log`` (stdout and stderr), ``proc``.
 _STARTED: dict[str, dict[str, Any]] = {}
 
@@ -84,21 +90,21 @@ def pytest_collection_modifyitems(session: pytest.Session, config: pytest.Config
     workflows' DEM runs one after another, so the single-core unit tests fill the rest of the cores.
     Whole test files move, so that no module-scoped fixture is set up twice; the order within each
     group is pytest's."""
-    if config.option.collectonly or shutil.which("liggghts") is None:
-        return  # without LIGGGHTS the fixtures fail the tests that need them, with the reason
+    if config.option.collectonly:
+        return
     needing = {flow.fixture: {item.nodeid.split("::")[0] for item in items if flow.fixture in getattr(item, "fixturenames", ())}
                for flow in BACKGROUND}
     if not any(needing.values()):
         return
     items[:] = sorted(items, key=lambda item: _group(item, needing))  # stable: pytest's order within a group
     for flow in BACKGROUND:
-        if not needing[flow.fixture]:
-            continue
+        if not needing[flow.fixture] or _missing(flow):
+            continue  # (a missing engine: the fixture fails the tests that need it, with the reason)
         out = config._tmp_path_factory.mktemp(flow.folder) / "results"
         log = out.parent / "workflow.log"
+        command = (["nice", "-n", str(flow.niceness)] if flow.niceness else []) + flow.command(out)
         with open(log, "w") as stream:
-            proc = subprocess.Popen(flow.command(out), cwd=REPO, stdout=stream, stderr=subprocess.STDOUT, text=True,
-                                    preexec_fn=(lambda n=flow.niceness: os.nice(n)) if flow.niceness else None)
+            proc = subprocess.Popen(command, cwd=REPO, stdout=stream, stderr=subprocess.STDOUT, text=True)
         _STARTED[flow.fixture] = {"out": out, "log": log, "proc": proc}
 
 
@@ -114,8 +120,8 @@ def pytest_unconfigure(config: pytest.Config) -> None:
 def _background_results(flow: BackgroundWorkflow, tmp_path_factory: pytest.TempPathFactory, what: str) -> Path:
     """Wait for ``flow`` (or run it here, if the collection hook did not start it, e.g. a fixture
     requested dynamically) and return its output root; a failed run fails the test with its logs."""
-    if shutil.which("liggghts") is None:
-        pytest.fail("LIGGGHTS is not installed: run scripts/install.sh (the workflow test needs the real binary)")
+    if _missing(flow):
+        pytest.fail(f"{flow.engine} is not installed: run scripts/install.sh (the workflow test needs the real binary)")
     started = _STARTED.get(flow.fixture)
     if started is not None:
         out, returncode = started["out"], started["proc"].wait()
