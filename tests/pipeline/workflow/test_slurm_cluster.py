@@ -72,9 +72,12 @@ def slurm_command(out: Path) -> list[str]:
         "dump_store:mem_mb=2000", "fields:mem_mb=2000", "calibrate:mem_mb=2000", "report:mem_mb=2000",
         "failure_catalogue:runtime=30",
         "--slurm-status-command", "squeue", "--slurm-logdir", str(out / "logs" / "slurm"),
-        # A one-node test cluster answers squeue at once: poll every 2 s, not Snakemake's 10 s
-        # (a site keeps the default).
-        "--slurm-init-seconds-before-status-checks", "5", "--seconds-between-status-checks", "2",
+        # A one-node test cluster answers squeue at once: poll soon (a site keeps the defaults). The
+        # plugin (2.8) waits this long after a check that saw a job finish, and 10 s more after each
+        # check that saw none (--seconds-between-status-checks is overridden by that back-off): at 5 s
+        # a job of a few seconds was seen done 10-15 s late, and the rerun's slots stood empty for
+        # 126 of its 251 s (2026-12-06, slurmctld's log: submissions on a 10 s beat).
+        "--slurm-init-seconds-before-status-checks", "1", "--seconds-between-status-checks", "2",
         "--slurm-no-account",
         "--latency-wait", "10", "--retries", "1",
         # Up to the scores: the report and the stability study (which runs its own small DEM
