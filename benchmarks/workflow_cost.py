@@ -36,7 +36,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import re
 import sys
 from pathlib import Path
 
@@ -49,6 +48,9 @@ sys.path.insert(0, str(REPO))
 from pipeline.dem.intruder_run import is_arrested, rest_speed_of  # noqa: E402
 from pipeline.dem.planar_run import settled_timestep  # noqa: E402
 from pipeline.scoring import intruder_scores, scores  # noqa: E402
+
+sys.path.insert(0, str(REPO / "benchmarks"))
+from engine_speed import LOOP  # noqa: E402  (a LIGGGHTS or LAMMPS log's timing of one run command)
 
 #: The cases of the goal (issue 19): rheometer, shear_gravity's replicas, intruder.
 GOAL_CASES = ("rheometer", "shear_gravity", "intruder")
@@ -228,8 +230,6 @@ def print_timeline(root: Path, slots: int, bare: float | None = None) -> None:
     print_dem_speed(root, jobs, slots, wall, end - last_dem, bare)
 
 
-#: A LIGGGHTS or LAMMPS log's timing of one ``run`` command.
-_LOOP = re.compile(r"^Loop time of (\S+) on (\d+) procs for (\d+) steps with (\d+) atoms", re.MULTILINE)
 
 
 def engine_loops(root: Path) -> tuple[float, float]:
@@ -240,7 +240,7 @@ def engine_loops(root: Path) -> tuple[float, float]:
         state = log.parent.parent / "state.json"
         if log.name == "fill.log" and state.exists() and json.loads(state.read_text()).get("fill", {}).get("shared"):
             continue  # a shared fill's log, copied into each run that adopted it: counted in the fill's folder
-        for t, procs, n_steps, atoms in _LOOP.findall(log.read_text(errors="replace")):
+        for t, procs, n_steps, atoms in LOOP.findall(log.read_text(errors="replace")):
             steps += float(n_steps) * float(atoms)
             seconds += float(t) * float(procs)
     return steps, seconds
