@@ -86,6 +86,37 @@ rule intruder_model_draws:
         "--draws {input.draws} --part {wildcards.k}/{wildcards.n} --out {output} > {log} 2>&1"
 
 
+# An intruder model's u_input propagated through the speed's sensitivities
+# (models.intruder_plastic_u_input, models.intruder_ngf_u_input: sensitivities): one job in place of
+# the draws' parts.
+rule intruder_model_sensitivities:
+    priority: targets.AFTER_DEM_PRIORITY
+    message:
+        "Model {wildcards.model}: intruder u_input from the speed's parameter sensitivities"
+    conda:
+        ENV
+    input:
+        config=CONFIG_JSON,
+        params=f"{ROOT}/calibration/params.json",
+        draws=f"{ROOT}/calibration/draws.json",
+        runs=intruder_runs,
+        fields=case_fields,
+        states=f"{ROOT}/models/{{case}}/{{model}}.states.npz",
+    output:
+        f"{ROOT}/model_draws/{{case}}/parts/{{model}}/sensitivities.nc",
+    wildcard_constraints:
+        case="|".join(layout.intruder_cases(config)) or "no_intruder_case",
+        model="|".join(layout.INTRUDER_MODELS),
+    log:
+        f"{ROOT}/logs/model_draws/{{case}}/{{model}}/sensitivities.log",
+    benchmark:
+        f"{ROOT}/benchmarks/model_draws/{{case}}/{{model}}/sensitivities.tsv"
+    shell:
+        "python -m pipeline.models intruder-sensitivities --config {input.config} --params {input.params} "
+        "--model {wildcards.model} --runs {input.runs} --fields {input.fields} --states {input.states} "
+        "--draws {input.draws} --out {output} > {log} 2>&1"
+
+
 rule intruder_model_refined:
     priority: targets.AFTER_DEM_PRIORITY
     message:

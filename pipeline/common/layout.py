@@ -109,6 +109,9 @@ def intruder_cases(config: dict[str, Any]) -> list[str]:
 
 #: Models that predict an intruder speed (continuum.intruder: each its own 2D solve).
 INTRUDER_MODELS = ("ngf", "local_mu_i", "critical_state", "volume_averaged", "cosserat")
+#: The intruder models with a Newton yield-stress solver (``continuum.intruder.yield2d``): their
+#: u_input can be propagated through the speed's sensitivities (``models.intruder_plastic_u_input``).
+PLASTIC_INTRUDER_MODELS = ("local_mu_i", "critical_state", "volume_averaged", "cosserat")
 
 
 def intruder_model_paths(config: dict[str, Any]) -> list[str]:
@@ -129,11 +132,29 @@ def intruder_draw_jobs(config: dict[str, Any]) -> int:
     return int((config.get("models") or {}).get("intruder_draw_jobs", 1))
 
 
+def plastic_u_input(config: dict[str, Any]) -> str:
+    """How the 2D plastic intruder models' u_input is made (``models.intruder_plastic_u_input``):
+    ``draws`` (each draw solved; absent means this) or ``sensitivities``
+    (``pipeline.models.intruder_sensitivities``)."""
+    return str((config.get("models") or {}).get("intruder_plastic_u_input", "draws"))
+
+
+def intruder_u_input(config: dict[str, Any], model: str) -> str:
+    """``draws`` or ``sensitivities`` for one intruder model: ``models.intruder_plastic_u_input``
+    for the plastic ones, ``models.intruder_ngf_u_input`` for NGF (absent: draws)."""
+    if model in PLASTIC_INTRUDER_MODELS:
+        return plastic_u_input(config)
+    return str((config.get("models") or {}).get(f"intruder_{model}_u_input", "draws"))
+
+
 def intruder_draw_part_paths(config: dict[str, Any], case: str, model: str) -> list[str]:
-    """``model_draws/{case}/parts/{model}/draws-{k}-of-{n}.nc`` for every part, then the grid
-    study's ``refined.nc``: what ``model_draws/{case}/{model}.nc`` is merged from."""
+    """``model_draws/{case}/parts/{model}/draws-{k}-of-{n}.nc`` for every part (or its
+    ``sensitivities.nc``, for a model whose u_input is propagated), then the grid study's
+    ``refined.nc``: what ``model_draws/{case}/{model}.nc`` is merged from."""
     n = intruder_draw_jobs(config)
     folder = root(config) / "model_draws" / case / "parts" / model
+    if intruder_u_input(config, model) == "sensitivities":
+        return [str(folder / "sensitivities.nc"), str(folder / "refined.nc")]
     return [str(folder / f"draws-{k}-of-{n}.nc") for k in range(1, n + 1)] + [str(folder / "refined.nc")]
 
 

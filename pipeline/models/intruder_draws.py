@@ -124,6 +124,8 @@ def merge(model: str, scenes: list[Scene], draws: list[xr.Dataset], refined: xr.
     failures: dict[str, str] = {}
     for part in draws:
         failures.update(json.loads(part.attrs["failures"]))
+    # how u_input was made: each draw solved, or propagated (pipeline.models.intruder_sensitivities)
+    methods = sorted({str(part.attrs.get("u_input_method", "draws")) for part in draws}) or ["draws"]
     out.attrs.update({"model": model, "case": "intruder", "n_draws": int(out.sizes.get("draw", 0)),
                       "cells_per_d": draws[0].attrs["cells_per_d"] if draws else DRAWS_CELLS_PER_D,
                       "cells_per_d_nominal": nominal_cells_per_d,
@@ -134,7 +136,9 @@ def merge(model: str, scenes: list[Scene], draws: list[xr.Dataset], refined: xr.
                       # a grid-study part written before 2026-12-05 kept no record of its failures:
                       # null (not known), never an empty record that would claim there were none
                       "refined_failures": refined.attrs.get("refined_failures", json.dumps(None)),
-                      "warm_start": int(warm_start)})
+                      "warm_start": int(warm_start), "u_input_method": ",".join(methods)})
+    if draws and "sensitivity_failures" in draws[0].attrs:
+        out.attrs["sensitivity_failures"] = draws[0].attrs["sensitivity_failures"]
     return out
 
 

@@ -139,8 +139,10 @@ def score_force_sweep(runs: list[dict], model_files: dict[str, Path], draw_files
         model_log = _log(model_u)
         draws_log = np.full((0, pushes.size), np.nan)
         refined_log = np.full(pushes.size, np.nan)
+        method = ""
         if draw_files and model in draw_files:
             with xr.open_dataset(draw_files[model]) as ens:
+                method = str(ens.attrs.get("u_input_method", "draws"))
                 sweep = ens["force_sweep"].values.astype(bool)
                 first = [push_index(ens["push_over_yield"].values, p, among=sweep) for p in pushes]
                 draws_log = np.array([[float(_log(ens["speed"].values[k, j])) if j is not None else np.nan for j in first]
@@ -156,7 +158,7 @@ def score_force_sweep(runs: list[dict], model_files: dict[str, Path], draw_files
         if one is not None:
             samples[("intruder", model, LOG_METRIC)] = full
             rows.append(_row(model, LOG_METRIC, one, n_grid, seconds, noise.dof, " ".join(covered)) | {
-                "dem_noise": pair_noise, "dem_noise_pairs": len(pair_terms)})
+                "dem_noise": pair_noise, "dem_noise_pairs": len(pair_terms), "u_input_method": method})
         s_model = slope(pushes[keep], model_log[keep])
         if math.isfinite(s_model):
             draws_s = np.array([slope(pushes[keep], row[keep]) for row in draws_log]) if draws_log.size else np.array([])
@@ -165,7 +167,8 @@ def score_force_sweep(runs: list[dict], model_files: dict[str, Path], draw_files
                                abs(slope(pushes[keep], refined_log[keep]) - dem_slope), noise.dof,
                                [" ".join(lab for lab, k in zip(labels, keep) if k)])
             samples[("intruder", model, SLOPE_METRIC)] = one
-            rows.append(_row(model, SLOPE_METRIC, one, n_grid, seconds, noise.dof, one.points[0]))
+            rows.append(_row(model, SLOPE_METRIC, one, n_grid, seconds, noise.dof, one.points[0])
+                        | {"u_input_method": method})
             error = s_model - dem_slope
             u_dem, u_input = float(np.nanstd(dem_slopes, ddof=1)), float(np.nanstd(draws_s, ddof=1)) if draws_s.size > 1 else math.nan
             u_val = math.sqrt(sum(x * x for x in (u_dem, u_input, one.u_num) if math.isfinite(x)))

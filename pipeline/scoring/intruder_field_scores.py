@@ -377,7 +377,7 @@ def _row(case: str, model: str, metric: str, value: float, u_dem: float, pairs: 
     return {"case": case, "model": model, "metric": metric, "value": value,
             "dem_noise": float(np.mean(pairs)) if pairs else math.nan, "n_grid": n_grid, "solve_seconds": math.nan,
             "role": math.nan, "u_dem": u_dem, "u_input": math.nan, "u_num": math.nan, "u_val": u_dem, "dem_dof": dof,
-            "draws_solved": 0, "draws_finite": math.nan,
+            "draws_solved": 0, "draws_finite": math.nan, "u_input_method": "",
             "dem_noise_err": float(np.std(pairs, ddof=1) / math.sqrt(len(pairs))) if len(pairs) >= 2 else math.nan,
             "dem_noise_pairs": len(pairs), "points": points}
 

@@ -135,8 +135,10 @@ def _score_depths(metric: str, by_depth: dict[float, list[float]], errors: dict[
             continue
         terms_dem = np.array([[_log_term(u, v) for u, v in zip(nominal, row)] for row in dem_resampled])
         terms_draws, terms_refined = np.full((0, len(targets)), np.nan), np.full(len(targets), np.nan)
+        method = ""
         if draw_files and model in draw_files:
             with xr.open_dataset(draw_files[model]) as ens:
+                method = str(ens.attrs.get("u_input_method", "draws"))
                 # The force sweep's runs share a depth with the depth sweep's: matched out.
                 sweep = ens["force_sweep"].values.astype(bool) if "force_sweep" in ens else np.zeros(ens.sizes["run"], bool)
                 run_depths = np.where(sweep, np.nan, ens["depth_over_d"].values)
@@ -159,5 +161,5 @@ def _score_depths(metric: str, by_depth: dict[float, list[float]], errors: dict[
                      "dem_dof": noise.dof, "draws_solved": int(terms_draws.shape[0]),
                      "draws_finite": one.draws_finite_fraction,
                      "dem_noise_err": (float(np.std(pairs, ddof=1) / math.sqrt(len(pairs))) if len(pairs) >= 2 else math.nan),
-                     "dem_noise_pairs": len(pairs), "points": " ".join(one.points)})
+                     "dem_noise_pairs": len(pairs), "points": " ".join(one.points), "u_input_method": method})
     return rows, samples

@@ -8,7 +8,11 @@ from typing import Any
 
 COLUMNS = ["case", "model", "metric", "value", "dem_noise", "n_grid", "solve_seconds", "role",
            "u_dem", "u_input", "u_num", "u_val", "dem_dof", "draws_solved", "draws_finite", "dem_noise_err",
-           "dem_noise_pairs", "points"]
+           "dem_noise_pairs", "points", "u_input_method"]
+
+#: ``u_input_method``: how the draws behind ``u_input`` (``draws_solved`` of them) were made: ``draws``
+#: (each the model's own solve) or ``sensitivities`` (propagated from the nominal solution's speed
+#: sensitivities, pipeline/models/intruder_sensitivities.py); empty where the score has no u_input.
 
 #: ``role`` of a case: a fit where any of its runs fed the calibration, else a prediction.
 ROLES = ("calibration", "held_out")

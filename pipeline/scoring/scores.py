@@ -188,7 +188,7 @@ def score_case(case: str, field_files: list[Path], model_files: dict[str, Path],
                 "case": case, "model": model, "metric": metric, "value": value,
                 "dem_noise": float(np.mean(pairs)) if pairs else math.nan,
                 "n_grid": int(sol.attrs["n_grid"]), "solve_seconds": float(sol.attrs["solve_seconds"]),
-                **uncertainty_columns(one), "draws_solved": n_solved,
+                **uncertainty_columns(one), "draws_solved": n_solved, "u_input_method": "draws" if n_solved else "",
                 "dem_noise_err": noise_error(pairs), "dem_noise_pairs": len(pairs), "points": one.points[0],
             })
         sol.close()

@@ -114,6 +114,7 @@ def score_wall(case: str, field_files: list[Path], model_files: dict[str, Path],
                          "dem_noise": float(np.mean(pairs)) if pairs else math.nan, "n_grid": n_grid,
                          "solve_seconds": seconds, "u_dem": one.u_dem, "u_input": one.u_input, "u_num": one.u_num,
                          "u_val": one.u_val, "dem_dof": dof, "draws_solved": solved,
+                         "u_input_method": "draws" if solved else "",
                          "draws_finite": one.draws_finite_fraction,
                          "dem_noise_err": float(np.std(pairs, ddof=1) / math.sqrt(len(pairs))) if len(pairs) >= 2 else math.nan,
                          "dem_noise_pairs": len(pairs), "points": "top wall"})

@@ -34,6 +34,37 @@ def test_every_missing_draw_or_refined_speed_says_why(reduced_results: Path) -> 
         for j, run in enumerate(ds.run.values):
             if np.isnan(ds.speed_refined.values[j]) and predicted[j]:
                 assert str(run) in refined_failures, (model, run, refined_failures)
+        # a propagated file (models.intruder_plastic_u_input: sensitivities) says why per scene
+        by_scene = json.loads(ds.attrs.get("sensitivity_failures", "{}"))
         for i, draw in enumerate(ds.draw.values):
-            if np.isnan(speed[i][predicted]).any():
-                assert str(int(draw)) in failures, (model, int(draw))
+            missing = [str(r) for r, m in zip(ds.run.values, np.isnan(speed[i]) & predicted) if m]
+            if missing:
+                assert str(int(draw)) in failures or all(r in by_scene for r in missing), (model, int(draw), missing)
+
+
+def test_plastic_u_input_is_propagated_over_every_draw_with_a_check_solve(reduced_results: Path) -> None:
+    """With ``models.intruder_plastic_u_input: sensitivities`` (ci.yaml) each plastic model's file
+    holds every draw of the ensemble that has its parameters, propagated, and names its method;
+    where a scene moves, its check draw is one of the ensemble's and was solved, so the file says
+    how far the propagation is from a solution there (the unit tests, tests/pipeline/models/
+    test_intruder_sensitivities.py, hold the propagation against the draws' own solves)."""
+    config = load_config(str(reduced_results / "config.effective.json"))
+    assert layout.plastic_u_input(config) == "sensitivities"
+    ensemble = json.loads((reduced_results / "calibration" / "draws.json").read_text())
+    for path in map(Path, layout.intruder_model_draw_paths(config)):
+        ds = xr.open_dataset(path)
+        model = ds.attrs["model"]
+        if model not in layout.PLASTIC_INTRUDER_MODELS:
+            assert ds.attrs["u_input_method"] == "draws", model
+            continue
+        assert ds.attrs["u_input_method"] == "sensitivities", model
+        usable = [d["draw"] for d in ensemble["draws"] if model not in d.get("failed", {})]
+        assert list(ds.draw.values) == usable, model
+        part = xr.open_dataset(path.parent / "parts" / model / "sensitivities.nc")
+        for j in range(part.sizes["run"]):
+            if part.rigid_nominal.values[j] or not np.isfinite(part.speed_nominal.values[j]):
+                continue
+            k = int(part.check_draw.values[j])
+            assert k in usable, (model, j)
+            assert np.isfinite(part.check_speed.values[j]), (model, j, json.loads(part.attrs["sensitivity_failures"]))
+            assert np.isfinite(part.check_dln_linear.values[j]), (model, j)
