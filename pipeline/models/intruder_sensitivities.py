@@ -236,7 +236,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     out.attrs.update(provenance_attrs(config))
     atomic.write_netcdf(out, args.out)
-    print(f"{args.model} sensitivities: {int(out.sizes['draw'])} draws linearised over {list(out.parameter.values)} "
+    print(f"{args.model} sensitivities: {int(out.sizes['draw'])} draws propagated over {', '.join(map(str, out.parameter.values))} "
           f"in {out.attrs['draws_seconds']:.1f} s; written {args.out}")
     return 0
 
