@@ -35,6 +35,8 @@ import pandas as pd
 import xarray as xr
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from draws_sampler import _intruder_u_input as u_inputs  # noqa: E402  (the workflow's intruder scoring of a root)
 
 PLASTIC = ("local_mu_i", "critical_state", "cosserat", "volume_averaged")
 
@@ -90,20 +92,6 @@ def draw_by_draw(solved: xr.Dataset, part: xr.Dataset) -> dict:
         out["check_draws"] = [int(v) for v in part.check_draw.values]
         out["check_dln_linear_max"] = float(np.nanmax(np.abs(part.check_dln_linear.values)))
     return out
-
-
-def u_inputs(root: Path, draw_files: dict[str, Path]) -> pd.Series:
-    from pipeline.common.config import load_config
-    from pipeline.scoring.force_sweep import score_force_sweep
-    from pipeline.scoring.intruder_scores import score_intruder
-    from pipeline.scoring.score_table import ScoringSettings
-
-    settings = ScoringSettings.from_config(load_config(str(root / "config.effective.json")))
-    runs = [json.loads(p.read_text()) for p in sorted((root / "dem" / "intruder").glob("D*/run.json"))]
-    files = {p.stem: p for p in sorted((root / "models" / "intruder").glob("*.nc"))}
-    rows, _ = score_intruder(runs, files, draw_files, settings)
-    more, _, _ = score_force_sweep(runs, files, draw_files, settings)
-    return pd.DataFrame(rows + more).set_index(["case", "model", "metric"])["u_input"]
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -9,17 +9,12 @@ from __future__ import annotations
 
 import pytest
 
-from continuum.geometry import PlanarShear
 from continuum.intruder import GridOptions, RodIntruder, intruder_speed
 from continuum.intruder.sensitivity import parameter_values, speed_secants, speed_sensitivities, with_parameter
-from continuum.parameters import (CosseratParameters, CriticalStateLine, CriticalStateParameters, NGFParameters,
-                                  MuIParameters, VolumeAveragedParameters)
+from continuum.parameters import CosseratParameters, MuIParameters, NGFParameters, VolumeAveragedParameters
 
-D = 0.002
-GEO = PlanarShear(depth=21.6 * D, wall_speed=0.1, wall_pressure=200.0, gravity=9.81, d=D, rho_s=2500.0,
-                  normal_stress_ratio=1.058)
-LX = 12 * D
-CS = CriticalStateParameters(0.374, CriticalStateLine(0.5868, 0.005, 300.0))
+from .test_intruder_yield_models import CS, GEO, LX, D
+
 GRID = GridOptions(cells_per_d=2)
 YIELD_FORCE = 1.5 * (GEO.wall_pressure + 0.6 * GEO.rho_s * GEO.gravity * 5 * D) * 3 * D
 ROD = RodIntruder.below_top(GEO, 3 * D, 6.5 * D, 0.5 * YIELD_FORCE)
