@@ -112,7 +112,7 @@ def solve_refined(model: str, params: dict[str, Any], scenes: list[Scene], nomin
 def merge(model: str, scenes: list[Scene], draws: list[xr.Dataset], refined: xr.Dataset, nominal_cells_per_d: float,
           seed: int, warm_start: bool) -> xr.Dataset:
     """The parts as the model's ``model_draws`` file (draws in order, the grid study, the scenes)."""
-    out = xr.concat(draws, dim="draw", data_vars="all", combine_attrs="drop").sortby("draw") if draws else xr.Dataset(coords=_scene_coords(scenes))
+    out = xr.concat(draws, dim="draw", data_vars="minimal", combine_attrs="drop").sortby("draw") if draws else xr.Dataset(coords=_scene_coords(scenes))
     out["draw"].attrs.update({"units": "1", "long_name": "parameter draw"})
     out["depth_over_d"] = ("run", np.array([s.depth_over_d for s in scenes], dtype=float),
                            {"units": "1", "long_name": "rod axis below the top wall, in d"})

@@ -12,6 +12,7 @@ whose ln U is curved in its length (docs/dem_cost.md section 25):
 from __future__ import annotations
 
 import copy
+import json
 
 import numpy as np
 import pytest
@@ -41,9 +42,10 @@ ENSEMBLE = {"seed": 1, "draws": [draw(0, 0.374, 1.165), draw(1, 0.372, 1.05), dr
                                  draw(3, 0.374, 1.2, failed=True)]}
 
 
-def test_offsets_cover_the_moved_parameters_and_leave_failed_draws_out() -> None:
+def test_offsets_cover_the_moved_parameters_and_keep_failed_draws_as_nan() -> None:
     indices, offsets, paths, failures = draw_parameters(PLASTIC, ENSEMBLE, MODEL)
-    assert indices == [0, 1, 2] and set(failures) == {"3"}
+    # the failed draw keeps its row (NaN): draw k is row k in every model's file
+    assert indices == [0, 1, 2, 3] and set(failures) == {"3"} and np.all(np.isnan(offsets[3]))
     assert paths == ["critical.sin_phi", "l"]  # only what some draw moves
     assert np.allclose(offsets[0], 0.0) and offsets[1] == pytest.approx([-0.002, -0.115 * D])
 
@@ -75,6 +77,7 @@ def test_propagated_draws_against_their_own_solves(propagated) -> None:
     assert u0 > 0.0 and out.attrs["u_input_method"] == "sensitivities"
     speed = out.speed.values[:, 0]
     assert speed[0] == u0  # the calibration's own values
+    assert np.isnan(speed[3]) and out.refused.values[3, 0] == 1 and "3" in json.loads(out.attrs["failures"])
     s1, s2 = out.log_offset.values[1, 0], out.log_offset.values[2, 0]
     assert s2 == pytest.approx(0.1 * s1, rel=1e-6) and abs(s1) > 0.5  # a real offset, and a tenth of it
     errors = [abs(np.log(speed[k] / own_speed(scenes, nominal, k))) for k in (1, 2)]
@@ -133,3 +136,25 @@ def test_ngf_draws_are_propagated_by_secants_of_its_own_solves() -> None:
     assert abs(np.log(own(1) / u0)) > 0.02  # the far draw moves the rod
     assert errors[1] < 0.2 * errors[0], errors
     assert np.isfinite(out.check_speed.values[0])
+
+
+def test_a_scene_whose_propagation_fails_its_check_solves_its_draws() -> None:
+    """The check's rule (a quarter of the predicted change, floor 0.01 in ln U), and a scene that
+    fails it: with the check's bound made impossible to meet, the scene's first draws are its own
+    solves (the nominal draw's the nominal speed), the rest NaN with the reason, not propagated."""
+    from pipeline.models import intruder_sensitivities as mod
+
+    assert mod.check_passes(0.02, 0.1) and not mod.check_passes(0.04, 0.1) and not mod.check_passes(np.nan, 0.1)
+    scenes = scenes_of(RUNS, [fields()], PLASTIC)
+    nominal, _ = solve_scenes(MODEL, model_parameters(PLASTIC, MODEL), scenes, 2.0)
+    saved = (mod.CHECK_RELATIVE, mod.CHECK_FLOOR)
+    mod.CHECK_RELATIVE, mod.CHECK_FLOOR = 0.0, -1.0  # no check can pass
+    try:
+        out = mod.sensitivities(MODEL, PLASTIC, ENSEMBLE, scenes, nominal, 2.0, fallback_draws=2)
+    finally:
+        mod.CHECK_RELATIVE, mod.CHECK_FLOOR = saved
+    speed = out.speed.values[:, 0]
+    assert out.propagated.values[0] == 0 and "failed its check" in json.loads(out.attrs["sensitivity_failures"])["D5-r1"]
+    assert speed[0] == pytest.approx(nominal[0].speed, rel=1e-6)  # draw 0 holds the calibration's values
+    assert speed[1] == pytest.approx(own_speed(scenes, nominal, 1), rel=1e-9)
+    assert np.all(np.isnan(speed[2:])) and np.all(out.refused.values[2:, 0] == 1)
