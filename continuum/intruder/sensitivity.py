@@ -31,7 +31,7 @@ from scipy.sparse.linalg import splu
 
 from ..errors import ContinuumError
 from ..geometry import PlanarShear
-from .api import INTRUDER_MODELS
+from .api import INTRUDER_MODELS, intruder_speed
 from .scene import GridOptions, RodIntruder
 from .yield2d import YieldRodSolver
 
@@ -66,6 +66,14 @@ def with_parameter(params: Any, path: str, value: float) -> Any:
     return dataclasses.replace(params, **{head: value})
 
 
+def has_jacobian(model: str) -> bool:
+    """Whether ``model``'s 2D solver is a Newton yield-stress solver (``yield2d.YieldRodSolver``):
+    its derivatives come from the implicit-function theorem (``speed_sensitivities``), else from
+    secants of its own solves (``speed_secants``). Raises KeyError for an unknown model."""
+    solver = INTRUDER_MODELS[model].solver
+    return solver is not None and issubclass(solver, YieldRodSolver)
+
+
 def speed_sensitivities(model: str, geometry: PlanarShear, params: Any, intruder: RodIntruder,
                         cell_length_x: float, grid: GridOptions, state: dict[str, np.ndarray],
                         paths: list[str], case: str | None = None) -> dict[str, float]:
@@ -74,14 +82,14 @@ def speed_sensitivities(model: str, geometry: PlanarShear, params: Any, intruder
     ``path`` of ``parameter_values``. Raises KeyError for an unknown model or path, TypeError for
     a model without a Newton solver (its derivatives need repeated solves), ValueError for a state
     of another grid."""
-    entry = INTRUDER_MODELS[model]
-    if entry.solver is None or not issubclass(entry.solver, YieldRodSolver):
+    if not has_jacobian(model):
         raise TypeError(f"{model}: no implicit-function sensitivities (not a Newton yield-stress solver)")
     nominal = parameter_values(params)
     unknown = [p for p in paths if p not in nominal]
     if unknown:
         raise KeyError(f"{model}: no float parameter {unknown} (known: {sorted(nominal)})")
-    solver = entry.solver(geometry, params, cell_length_x, intruder, grid, case)
+    solver_type = INTRUDER_MODELS[model].solver
+    solver = solver_type(geometry, params, cell_length_x, intruder, grid, case)
     disc = solver._discretisation()
     if state["u"].size != solver.grid.n_cells:
         raise ValueError(f"{model}: the state has {state['u'].size} cells, the grid {solver.grid.n_cells}")
@@ -98,7 +106,7 @@ def speed_sensitivities(model: str, geometry: PlanarShear, params: Any, intruder
         h = RELATIVE_STEP * (abs(value) if value != 0.0 else 1.0)
         sides = []
         for v in (value + h, value - h):
-            moved = entry.solver(geometry, with_parameter(params, path, v), cell_length_x, intruder, grid, case)
+            moved = solver_type(geometry, with_parameter(params, path, v), cell_length_x, intruder, grid, case)
             sides.append(moved._evaluate(y, moved._discretisation(), eps, False)["residual"])
         d_residual = (sides[0] - sides[1]) / (2.0 * h)
         out[path] = float(-lu.solve(d_residual)[-1])
@@ -113,8 +121,6 @@ def speed_secants(model: str, geometry: PlanarShear, params: Any, intruder: RodI
     A secant over a step of the parameters' own spread is the mean slope over the draws' bulk, and
     the step keeps U's change far above the solve's tolerance (rel ~1e-3). Raises what
     ``intruder_speed`` raises for a side that has no solution."""
-    from .api import intruder_speed
-
     nominal = parameter_values(params)
     unknown = [p for p in steps if p not in nominal]
     if unknown:

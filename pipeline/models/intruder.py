@@ -39,7 +39,7 @@ import xarray as xr
 import continuum
 from continuum.intruder import INTRUDER_MODELS, GridOptions, IntruderSpeed, RodIntruder, intruder_speed
 from continuum.geometry import PlanarShear
-from continuum.intruder.yield2d import YieldRodSolver
+from continuum.intruder.sensitivity import has_jacobian
 from pipeline.common.formats import open_fields
 from pipeline.common import atomic
 from pipeline.calibration.parameter_sets import model_parameters, normal_stress_ratio, params_of_draw, slip_length
@@ -249,8 +249,7 @@ def intruder_draws(config: dict[str, Any], model: str) -> int:
     solvers (regularised yield-stress solves, tens of CPU seconds each: measured 2026-12-04),
     ``models.intruder_draws`` for the others (NGF: seconds a solve)."""
     models = config.get("models") or {}
-    solver = INTRUDER_MODELS[model].solver
-    if solver is not None and issubclass(solver, YieldRodSolver) and "intruder_plastic_draws" in models:
+    if has_jacobian(model) and "intruder_plastic_draws" in models:
         return int(models["intruder_plastic_draws"])
     return int(models.get("intruder_draws", DEFAULT_INTRUDER_DRAWS))
 

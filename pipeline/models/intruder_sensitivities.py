@@ -48,9 +48,7 @@ import xarray as xr
 
 import continuum
 from continuum.intruder import GridOptions, IntruderSpeed
-from continuum.intruder import INTRUDER_MODELS
-from continuum.intruder.sensitivity import parameter_values, speed_secants, speed_sensitivities
-from continuum.intruder.yield2d import YieldRodSolver
+from continuum.intruder.sensitivity import has_jacobian, parameter_values, speed_secants, speed_sensitivities
 from pipeline.calibration.parameter_sets import model_parameters, params_of_draw
 from pipeline.common import atomic
 from pipeline.common.config import load_config
@@ -105,19 +103,12 @@ def check_draw_index(s: np.ndarray) -> int:
     return int(np.argmin(np.where(finite, np.abs(np.abs(s) - spread), np.inf)))
 
 
-def newton_model(model: str) -> bool:
-    """Whether ``model``'s 2D solver is a Newton yield-stress solver (implicit-function
-    derivatives); else its derivatives are secants of its own solves (``speed_secants``)."""
-    solver = INTRUDER_MODELS[model].solver
-    return solver is not None and issubclass(solver, YieldRodSolver)
-
-
 def gradient_of(model: str, scene: Scene, parameters: Any, result: IntruderSpeed, paths: list[str],
                 offsets: np.ndarray, cells_per_d: float) -> dict[str, float]:
     """dU/dtheta of one scene at the nominal ``result``: the implicit-function derivatives of a
     Newton solver, else central secants over +- the draws' own spread of each parameter."""
     grid = GridOptions(cells_per_d=cells_per_d)
-    if newton_model(model):
+    if has_jacobian(model):
         return speed_sensitivities(model, scene.geometry, parameters, scene.rod, scene.cell_length_x, grid,
                                    result.state, paths, case=scene.label)
     usable = offsets[np.all(np.isfinite(offsets), axis=1)]
@@ -132,9 +123,9 @@ def gradient_of(model: str, scene: Scene, parameters: Any, result: IntruderSpeed
                          case=scene.label)
 
 
-def _check_solve(model: str, params: dict[str, Any], ensemble: dict[str, Any], draw: int, scene: Scene,
-                 result: IntruderSpeed, cells_per_d: float) -> tuple[float | None, str | None]:
-    """The draw's own solve of one scene (warm from the nominal): the check."""
+def _solve_draw(model: str, params: dict[str, Any], ensemble: dict[str, Any], draw: int, scene: Scene,
+                result: IntruderSpeed, cells_per_d: float) -> tuple[float | None, str | None]:
+    """The draw's own solve of one scene (warm from the nominal): the check, or a fallback draw."""
     entry = next(d for d in ensemble["draws"] if int(d["draw"]) == draw)
     solved, reason = solve_scene(model, model_parameters(params_of_draw(params, entry), model), scene, cells_per_d,
                                  result)
@@ -166,7 +157,7 @@ def _solve_draws_of_scene(model: str, params: dict[str, Any], ensemble: dict[str
     speeds = np.full(len(indices), np.nan)
     reasons: dict[str, str] = {}
     for i in [i for i, ok in enumerate(usable) if ok][:n_solved]:
-        solved, reason = _check_solve(model, params, ensemble, indices[i], scene, result, cells_per_d)
+        solved, reason = _solve_draw(model, params, ensemble, indices[i], scene, result, cells_per_d)
         if solved is None:
             reasons[str(indices[i])] = str(reason)[:300]
         else:
@@ -209,7 +200,7 @@ def sensitivities(model: str, params: dict[str, Any], ensemble: dict[str, Any], 
         if result.speed == 0.0:
             # the nominal is a rigid zone's creep in the limit: U = 0, and 0 in every draw (module docstring)
             rigid[j], gradient[j] = 1, 0.0
-            speed[:, j] = first_order[:, j] = np.where(np.all(np.isfinite(offsets), axis=1), 0.0, np.nan)
+            speed[:, j] = first_order[:, j] = np.where(usable, 0.0, np.nan)
             refused[np.isnan(speed[:, j]), j] = 1
             seconds[j] = time.perf_counter() - t1
             continue
@@ -224,7 +215,7 @@ def sensitivities(model: str, params: dict[str, Any], ensemble: dict[str, Any], 
             s = first_order[:, j] = log_offsets(result.speed, gradient[j], offsets)
             if check and usable.any():
                 k = check_draw_index(s)
-                solved, reason = _check_solve(model, params, ensemble, indices[k], scene, result, cells_per_d)
+                solved, reason = _solve_draw(model, params, ensemble, indices[k], scene, result, cells_per_d)
                 check_draw[j] = indices[k]
                 check_speed[j] = np.nan if solved is None else solved
                 if solved is not None and solved * result.speed > 0.0:
@@ -235,11 +226,11 @@ def sensitivities(model: str, params: dict[str, Any], ensemble: dict[str, Any], 
                               f"the check solve of draw {indices[k]} has no speed: {reason}")
         if failed is None:
             speed[:, j] = linearised_speeds(result.speed, s)
-            wall = scene.geometry.wall_speed * (1.0 + CARRIED_TOLERANCE)
-            if np.nanmax(np.abs(speed[:, j]), initial=0.0) > wall:
+            fastest = float(np.nanmax(np.abs(speed[:, j]), initial=0.0))
+            if fastest > scene.geometry.wall_speed * (1.0 + CARRIED_TOLERANCE):
                 # a solved draw faster than the wall is refused (pipeline.models.intruder): a
                 # propagation that reaches it is not one to trust at this scene
-                failed = f"the propagation carries a draw past the wall speed ({np.nanmax(np.abs(speed[:, j])):.3g} m/s)"
+                failed = f"the propagation carries a draw past the wall speed ({fastest:.3g} m/s)"
         if failed is None:
             propagated[j] = 1
         else:

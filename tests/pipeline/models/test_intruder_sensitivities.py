@@ -93,12 +93,11 @@ def test_the_layout_merges_the_propagated_part_for_plastic_models_only() -> None
     """``models.intruder_plastic_u_input: sensitivities`` puts one propagated part in place of the
     plastic models' draws parts; NGF (no Newton solver) keeps its draws; absent means draws."""
     from continuum.intruder import INTRUDER_MODELS
-    from continuum.intruder.yield2d import YieldRodSolver
+    from continuum.intruder.sensitivity import has_jacobian
     from pipeline.common import layout
 
     # the layout's list is the registry's Newton yield-stress solvers
-    assert set(layout.PLASTIC_INTRUDER_MODELS) == {m for m, e in INTRUDER_MODELS.items()
-                                                   if e.solver is not None and issubclass(e.solver, YieldRodSolver)}
+    assert set(layout.PLASTIC_INTRUDER_MODELS) == {m for m in INTRUDER_MODELS if has_jacobian(m)}
     config = {"output_root": "R", "models": {"intruder_draw_jobs": 2}}
     assert [p.rsplit("/", 1)[1] for p in layout.intruder_draw_part_paths(config, "intruder", "cosserat")] == \
         ["draws-1-of-2.nc", "draws-2-of-2.nc", "refined.nc"]
