@@ -27,12 +27,12 @@ import dataclasses
 from typing import Any
 
 import numpy as np
-from scipy.sparse.linalg import splu
 
 from ..errors import ContinuumError
 from ..geometry import PlanarShear
 from .api import INTRUDER_MODELS, intruder_speed
 from .scene import GridOptions, RodIntruder
+from .sparse_lu import SingularMatrixError, factorise
 from .yield2d import YieldRodSolver
 
 #: Relative central-difference step of the residual's parameter derivative. The residual is
@@ -40,6 +40,9 @@ from .yield2d import YieldRodSolver
 #: truncation error (~h^2) and the round-off (~1e-16 / h of the residual's terms) are both
 #: below 1e-7 of the derivative.
 RELATIVE_STEP = 1e-4
+#: Relative residual the derivative's linear solve may leave (``sparse_lu``: PARDISO's refined
+#: solves leave 3e-7 or less on these Jacobians; a singular one leaves order 1).
+SOLVE_CHECK = 1e-6
 
 
 def parameter_values(params: Any, prefix: str = "") -> dict[str, float]:
@@ -97,8 +100,8 @@ def speed_sensitivities(model: str, geometry: PlanarShear, params: Any, intruder
     eps = solver.regularisations[-1]
     ev = solver._evaluate(y, disc, eps, True)
     try:
-        lu = splu(ev["jacobian"].tocsc())
-    except RuntimeError as exc:
+        lu = factorise(ev["jacobian"])
+    except SingularMatrixError as exc:
         raise ContinuumError(f"{model}: singular Jacobian at the converged state ({exc})") from exc
     out: dict[str, float] = {}
     for path in paths:
@@ -109,7 +112,10 @@ def speed_sensitivities(model: str, geometry: PlanarShear, params: Any, intruder
             moved = solver_type(geometry, with_parameter(params, path, v), cell_length_x, intruder, grid, case)
             sides.append(moved._evaluate(y, moved._discretisation(), eps, False)["residual"])
         d_residual = (sides[0] - sides[1]) / (2.0 * h)
-        out[path] = float(-lu.solve(d_residual)[-1])
+        try:
+            out[path] = float(-lu.solve(d_residual, check=SOLVE_CHECK)[-1])
+        except SingularMatrixError as exc:
+            raise ContinuumError(f"{model}: singular Jacobian at the converged state ({exc})") from exc
     return out
 
 

@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 import xarray as xr
-from scipy.sparse.linalg import LinearOperator, gmres, splu
+from scipy.sparse.linalg import LinearOperator, gmres
 
 from .. import solve as solve_planar
 from ..errors import ConvergenceError, OutOfRangeError
@@ -33,6 +33,7 @@ from .mac import MacGrid
 from .regrid import regrid_state, same_cell
 from .plastic2d import Discretisation, PlasticLaw, Scales, averaging_operators, corner_xz, equations, fill_map, inside_rod
 from .scene import GridOptions, RodIntruder
+from .sparse_lu import SingularMatrixError, factorise
 
 #: Largest scaled residual of a converged stage (equations scaled as in ``plastic2d.equations``;
 #: momentum in P_wall / d as NGF's RESIDUAL_TOL, continuity in V / d). Round-off puts a floor
@@ -76,6 +77,10 @@ STALL_FACTOR = 0.5
 STALL_FLOOR = 1e-4
 #: |U| / V beyond which a Newton iterate is taken as a rod with no steady state (runaway).
 RUNAWAY = 1e3
+#: Relative residual a freshly factorised Newton step may leave: the inexact-Newton forcing term,
+#: min(this, the scaled residual), as GMRES's (``sparse_lu`` refines a perturbed factor's solve to
+#: it, or refuses: a singular Jacobian).
+_NEWTON_SOLVE_CHECK = 1e-2
 #: GMRES iterations (one restart cycle) before the Jacobian is factorised anew.
 _GMRES_ITERATIONS = 30
 #: A stage's first Newton step factorises its Jacobian at once: the last stage's LU (eps ten
@@ -230,13 +235,17 @@ class YieldRodSolver(RodSolver):
             if info == 0:
                 return dy
         try:
-            self._lu = splu(jac)
+            self._lu = factorise(jac)
             self._lu_eps = eps_rel
-        except RuntimeError as exc:  # singular factor
+        except SingularMatrixError as exc:
             raise ConvergenceError(self.model, res, f"Newton: singular Jacobian at eps = {eps_rel:g} V/d ({exc})",
                                    self.case) from exc
         self.factorisations += 1
-        return self._lu.solve(rhs)
+        try:
+            return self._lu.solve(rhs, check=min(_NEWTON_SOLVE_CHECK, max(res, 1e-12)))
+        except SingularMatrixError as exc:
+            raise ConvergenceError(self.model, res, f"Newton: singular Jacobian at eps = {eps_rel:g} V/d ({exc})",
+                                   self.case) from exc
 
     def _newton(self, y: np.ndarray, disc: Discretisation, eps_rel: float,
                 stall: bool = True) -> tuple[np.ndarray, int, float, float]:

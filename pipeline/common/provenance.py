@@ -10,7 +10,8 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
-PACKAGES = ("granular-validate", "numpy", "scipy", "pandas", "xarray", "netCDF4", "pyvista", "matplotlib", "snakemake")
+PACKAGES = ("granular-validate", "numpy", "scipy", "pandas", "xarray", "netCDF4", "pyvista", "matplotlib", "snakemake",
+            "pypardiso", "mkl")
 
 
 @lru_cache(maxsize=1)

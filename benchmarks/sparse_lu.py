@@ -1,0 +1,100 @@
+"""Benchmark (issue 57, item 1): the 2D plastic intruder jobs with PARDISO's LU against SuperLU's,
+side by side in one process (alternating, CPU seconds by time.process_time; never a test).
+
+For each model of ``--models`` and each job of ``--jobs`` (``nominal``: ``python -m pipeline.models
+intruder``, the depth and force sweeps and their F = 0 drifts at 3 cells per d; ``refined``: the grid
+study's finer grid, ``intruder-draws refined``), the job runs on ROOT's own inputs once per backend
+per repeat (``continuum.intruder.sparse_lu.DEFAULT_BACKEND`` set between runs, the order alternated),
+and prints the CPU seconds, their ratio, and the largest relative difference of any speed the two
+backends wrote (the stages' tolerance is a scaled residual of 1e-6, so U agrees to far below the
+grid study's differences).
+
+Run: ``python benchmarks/sparse_lu.py ROOT --out OUT [--models ...] [--jobs nominal refined] [--repeats 1]``
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+from continuum.intruder import sparse_lu  # noqa: E402
+from pipeline.models import intruder, intruder_draws  # noqa: E402
+
+PLASTIC = ("local_mu_i", "critical_state", "cosserat", "volume_averaged")
+SPEEDS = {"nominal": ("speed", "sweep_speed", "drift_speed", "sweep_drift_speed"), "refined": ("speed_refined",)}
+
+
+def job_argv(root: Path, job: str, model: str, out: Path) -> list[str]:
+    """The rule's command line for ``job`` of ``model`` on ROOT's inputs, written under ``out``."""
+    runs = sorted(r for r in (root / "dem" / "intruder").glob("D*/run.json") if "control" not in r.parent.name)
+    fields = [root / "fields" / "intruder" / f"{r.parent.name}.nc" for r in runs]
+    common = ["--config", str(root / "config.effective.json"), "--params", str(root / "calibration" / "params.json"),
+              "--model", model, "--runs", *map(str, runs), "--fields", *map(str, fields)]
+    if job == "nominal":
+        return [*common, "--out", str(out / f"{model}.nc"), "--states-out", str(out / f"{model}.states.npz")]
+    return ["refined", *common, "--states", str(root / "models" / "intruder" / f"{model}.states.npz"),
+            "--out", str(out / f"{model}.refined.nc")]
+
+
+def run(root: Path, job: str, model: str, backend: str, out: Path) -> tuple[float, dict[str, np.ndarray]]:
+    """CPU seconds of one job with ``backend``, and the speeds it wrote."""
+    out.mkdir(parents=True, exist_ok=True)
+    sparse_lu.DEFAULT_BACKEND = backend
+    main = intruder.main if job == "nominal" else intruder_draws.main
+    t0 = time.process_time()
+    code = main(job_argv(root, job, model, out))
+    cpu = time.process_time() - t0
+    if code not in (0, None):
+        raise SystemExit(f"{job} {model} with {backend}: exit {code}")
+    path = out / (f"{model}.nc" if job == "nominal" else f"{model}.refined.nc")
+    with xr.open_dataset(path) as ds:
+        speeds = {k: ds[k].values.copy() for k in SPEEDS[job] if k in ds}
+    return cpu, speeds
+
+
+def largest_difference(a: dict[str, np.ndarray], b: dict[str, np.ndarray]) -> float:
+    """Largest |a - b| / max(|a|, |b|) over every finite speed of both (0 where both are 0)."""
+    worst = 0.0
+    for k in a:
+        x, y = a[k], b[k]
+        ok = np.isfinite(x) & np.isfinite(y) & ((x != 0) | (y != 0))
+        if ok.any():
+            worst = max(worst, float(np.max(np.abs(x[ok] - y[ok]) / np.maximum(np.abs(x[ok]), np.abs(y[ok])))))
+        if not np.array_equal(np.isfinite(x), np.isfinite(y)):
+            worst = np.inf  # one backend converged where the other did not
+    return worst
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("root", type=Path)
+    parser.add_argument("--out", required=True, type=Path)
+    parser.add_argument("--models", nargs="+", default=list(PLASTIC), choices=PLASTIC)
+    parser.add_argument("--jobs", nargs="+", default=["nominal", "refined"], choices=["nominal", "refined"])
+    parser.add_argument("--repeats", type=int, default=1)
+    args = parser.parse_args()
+    totals = {"superlu": 0.0, "pardiso": 0.0}
+    print(f"{'job':8s} {'model':16s} {'rep':>3s} {'superlu s':>10s} {'pardiso s':>10s} {'ratio':>6s} {'max rel dU':>10s}")
+    for job in args.jobs:
+        for model in args.models:
+            for rep in range(args.repeats):
+                order = ("superlu", "pardiso") if rep % 2 == 0 else ("pardiso", "superlu")
+                got = {b: run(args.root, job, model, b, args.out / b / job) for b in order}
+                for b in got:
+                    totals[b] += got[b][0]
+                cpu_s, cpu_p = got["superlu"][0], got["pardiso"][0]
+                print(f"{job:8s} {model:16s} {rep:3d} {cpu_s:10.1f} {cpu_p:10.1f} {cpu_s / cpu_p:6.2f} "
+                      f"{largest_difference(got['superlu'][1], got['pardiso'][1]):10.2g}", flush=True)
+    print(f"total CPU s: superlu {totals['superlu']:.1f}, pardiso {totals['pardiso']:.1f}, "
+          f"ratio {totals['superlu'] / totals['pardiso']:.3f}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
