@@ -27,7 +27,6 @@ import ctypes
 import glob
 import os
 import sys
-from typing import Protocol
 
 import numpy as np
 import scipy.sparse as sp
@@ -51,10 +50,6 @@ _MKL_SEQUENTIAL = 1
 
 class SingularMatrixError(RuntimeError):
     """The factorisation failed, or a checked solve did not solve: a singular matrix."""
-
-
-class Factorisation(Protocol):
-    def solve(self, rhs: np.ndarray) -> np.ndarray: ...
 
 
 _mkl_rt: str | None = None
@@ -114,22 +109,18 @@ class PardisoLU:
         if getattr(self, "_solver", None) is not None:
             self._free()
 
-    @property
-    def shape(self) -> tuple[int, int]:
-        return self._a.shape
-
     def _refined(self, b: np.ndarray, check: float) -> tuple[np.ndarray, float]:
         """The solve refined up to ``REFINEMENTS`` times until its relative residual is under
         ``check``; the solution and its relative residual."""
         scale = float(np.linalg.norm(b)) or 1.0
         x = self._solver.solve(self._a, b)
-        for step in range(REFINEMENTS + 1):
-            r = b - self._a @ x
-            relative = float(np.linalg.norm(r)) / scale
-            if relative <= check or step == REFINEMENTS:
-                return x, relative
+        r = b - self._a @ x
+        for _ in range(REFINEMENTS):
+            if float(np.linalg.norm(r)) <= check * scale:
+                break
             x = x + self._solver.solve(self._a, r)
-        raise AssertionError("unreachable")
+            r = b - self._a @ x
+        return x, float(np.linalg.norm(r)) / scale
 
     def solve(self, rhs: np.ndarray, check: float | None = None) -> np.ndarray:
         """x with A x = rhs. With ``check``, the relative residual |A x - rhs| / |rhs| is brought
@@ -159,10 +150,6 @@ class SuperLU:
             self._lu = splu(sp.csc_matrix(a))
         except RuntimeError as exc:
             raise SingularMatrixError(f"SuperLU: {exc}") from exc
-
-    @property
-    def shape(self) -> tuple[int, int]:
-        return self._lu.shape
 
     def solve(self, rhs: np.ndarray, check: float | None = None) -> np.ndarray:
         """x with A x = rhs (partial pivoting refuses a singular matrix when it factorises:
