@@ -200,6 +200,38 @@ def concurrency(jobs: pd.DataFrame) -> pd.Series:
     return pd.Series(held).sort_index()
 
 
+#: The model stage's rules, by their benchmark folders (rules/models.smk), and its parts by job name.
+MODEL_STAGE_RULES = ("models", "model_draws", "model_fields")
+
+
+def model_stage_part(rule: str, case: str, job: str) -> str:
+    """Which part of the model stage a job of ``rule`` (a benchmark folder) is: the intruder's
+    parameter draws, its sensitivities, its grid study, the draws' merge, its nominal solves, the
+    planar models or the model fields."""
+    if rule == "model_fields":
+        return "fields"
+    if rule == "models":
+        return "intruder nominal" if case == "intruder" else "planar models"
+    if job.startswith("draws-"):
+        return "intruder draws"
+    return {"sensitivities": "intruder sensitivities", "refined": "intruder grid study"}.get(job, "draws merge")
+
+
+def print_model_stage(root: Path, jobs: pd.DataFrame) -> None:
+    """The model stage's slot-seconds (one core per job) by part, and as a share of the DEM's
+    slot-seconds (issue 57, item 1)."""
+    model = jobs[jobs["rule"].isin(MODEL_STAGE_RULES)]
+    if model.empty:
+        print("model stage: no finished jobs")
+        return
+    parts = model.apply(lambda r: model_stage_part(r["rule"], r["case"], r["job"]), axis=1)
+    dem = dem_slot_seconds(root, jobs)
+    total = float(model["seconds"].sum())
+    share = f"{100 * total / dem:.1f} % of the DEM's {dem:.0f}" if dem > 0 else "no DEM jobs to compare with"
+    print(f"model stage: {total:.0f} slot-seconds in {len(model)} jobs, {share}; by part: "
+          + ", ".join(f"{k} {v:.0f}" for k, v in model.groupby(parts)["seconds"].sum().sort_values(ascending=False).items()))
+
+
 def print_timeline(root: Path, slots: int, bare: float | None = None) -> None:
     """The slots' use of one finished workflow run (module docstring)."""
     jobs = job_timeline(root)
@@ -212,6 +244,7 @@ def print_timeline(root: Path, slots: int, bare: float | None = None) -> None:
     print("DEM slot-seconds by case:\n" + by_case.to_string(float_format=lambda v: f"{v:.0f}"))
     print(f"after the DEM (every other rule): {jobs.loc[~dem, 'seconds'].sum():.0f} slot-seconds in {int((~dem).sum())} jobs; by rule: "
           + ", ".join(f"{r} {v:.0f}" for r, v in jobs[~dem].groupby("rule")["seconds"].sum().sort_values(ascending=False).items()))
+    print_model_stage(root, jobs)
     held = concurrency(jobs)
     print("seconds with k jobs running: " + ", ".join(f"{k}: {v:.0f}" for k, v in held.items()))
     # The idle tail: from the last moment the slots were all busy to the end.
@@ -246,20 +279,50 @@ def engine_loops(root: Path) -> tuple[float, float]:
     return steps, seconds
 
 
+def engine_launches(root: Path, dem: pd.DataFrame) -> tuple[int, float]:
+    """How many times the DEM jobs of ``dem`` (rows of :func:`job_timeline`) started the engine (one
+    log per stage), and their wall seconds outside the engine's loops (the job's seconds less the
+    wall time of every ``run`` loop in its logs; a shared fill's log copied into a run is the
+    fill job's, not the run's)."""
+    launches, outside = 0, 0.0
+    for row in dem.itertuples():
+        run_dir = root / "dem" / row.case / row.job
+        state = run_dir / "state.json"
+        shared = state.exists() and json.loads(state.read_text()).get("fill", {}).get("shared")
+        loops = 0.0
+        for log in sorted((run_dir / "logs").glob("*.log")):
+            if log.name == "fill.log" and shared:
+                continue
+            found = LOOP.findall(log.read_text(errors="replace"))
+            launches += bool(found)
+            loops += sum(float(t) for t, *_ in found)
+        outside += row.seconds - loops
+    return launches, outside
+
+
+def dem_records(root: Path) -> list[dict]:
+    """The run and shared-fill records of ``root``'s finished DEM (``run.json``, ``fill.json``)."""
+    return [json.loads(p.read_text()) for pattern in ("*/*/run.json", "*/fill-*/fill.json")
+            for p in sorted((root / "dem").glob(pattern))]
+
+
+def dem_slot_seconds(root: Path, jobs: pd.DataFrame) -> float:
+    """The DEM jobs' slot-seconds: each job's wall seconds x its MPI ranks (both rules, runs and
+    shared fills, keep their benchmark files under benchmarks/dem/)."""
+    ranks = {(r["case"], r["run"]): r.get("mpi_ranks", 1) for r in dem_records(root)}
+    return float(sum(row.seconds * ranks.get((row.case, row.job), 1) for row in jobs[jobs["rule"] == "dem"].itertuples()))
+
+
 def print_dem_speed(root: Path, jobs: pd.DataFrame, slots: int, wall: float, tail: float, bare: float | None) -> None:
     """Issue 57, item 4: the wall against 1.05 x the DEM's slot-seconds over the slots plus the tail
     after the last DEM job, and the DEM's particle-steps per slot-second (the jobs' own seconds x
     their ranks) against the engine's inside its loops and, with ``bare``, alone on the same bed."""
-    records = [json.loads(p.read_text()) for pattern in ("*/*/run.json", "*/fill-*/fill.json")
-               for p in sorted((root / "dem").glob(pattern))]
-    if not records:
+    if not dem_records(root):
         print("DEM: no finished runs (dem/*/*/run.json): no DEM speed to report")
         return
     runs = run_costs(root)
-    ranks = {(r["case"], r["run"]): r.get("mpi_ranks", 1) for r in records}
-    # (both rules, runs and shared fills, keep their benchmark files under benchmarks/dem/)
     dem = jobs[jobs["rule"] == "dem"]
-    slot_s = float(sum(row.seconds * ranks.get((row.case, row.job), 1) for row in dem.itertuples()))
+    slot_s = dem_slot_seconds(root, jobs)
     bound = 1.05 * slot_s / slots + tail
     print(f"DEM jobs (runs and shared fills): {len(dem)}, {slot_s:.0f} slot-seconds; wall {wall:.0f} s against "
           f"1.05 x {slot_s:.0f} / {slots} + {tail:.0f} s tail = {bound:.0f} s: ratio {wall / bound:.3f} "
@@ -275,6 +338,11 @@ def print_dem_speed(root: Path, jobs: pd.DataFrame, slots: int, wall: float, tai
     if bare is not None:
         line += f"; against the engine alone on the same bed ({bare:.2f} M): jobs {job_rate / 1e6 / bare:.3f}, loops {loop_rate / 1e6 / bare:.3f}"
     print(line)
+    launches, outside = engine_launches(root, dem)
+    if launches:
+        print(f"DEM outside the loops: {outside:.0f} s of the DEM jobs' wall over {launches} engine launches (one per stage: "
+              f"fill, shear and production chunks), {outside / launches:.2f} s a launch: start-up, restart files read "
+              "and written, the dumps' and series' checks and the pipeline's Python between chunks")
 
 
 def load_bill(path: Path) -> dict[str, object]:
