@@ -53,8 +53,8 @@ def main(argv: list[str] | None = None) -> int:
     odd = both[~zero & ~undefined & ~usable]
     both = both.assign(ratio=np.where(usable, b / np.where(usable, a, 1.0), np.nan))
     print(f"{len(both)} scores in both roots: {int(usable.sum())} with a finite positive u_input in both, "
-          f"{int(zero.sum())} zero in both (rigid at every draw), {int(undefined.sum())} without one in both "
-          f"(no parameter spread reaches the score), {len(odd)} other")
+          f"{int(zero.sum())} zero in both (rigid at every draw), {int(undefined.sum())} not finite in both, "
+          f"{len(odd)} other")
     for r in odd.itertuples():
         print(f"  {r.case}/{r.model}/{r.metric}: u_input {r.u_input_before!r} -> {r.u_input_after!r}")
     rows = both[usable]
