@@ -9,7 +9,10 @@ replay of the same inputs with ``dump_every`` set to 0 (no particle or contact d
 dumps inside the engine (issue 57, item 4); what is left between it and the engine's bare
 throughput (``benchmarks/engine_speed.py``) is the stages' restarts and process starts.
 
-Usage: ``python benchmarks/dem_overhead.py [--config config/ci.yaml] [--case rheometer] [--run I0.2-P200-r1] [--repeat 2]``
+With ``--launchers mpirun none`` it times instead the pipeline run through each launcher in turn
+(one rank either way, the same DEM): what ``mpirun -n 1`` costs per engine start.
+
+Usage: ``python benchmarks/dem_overhead.py [--config config/ci.yaml] [--case rheometer] [--run I0.2-P200-r1] [--repeat 2] [--launchers mpirun none]``
 """
 from __future__ import annotations
 
@@ -29,13 +32,36 @@ sys.path.insert(0, str(REPO))
 from pipeline.dem.planar_run import _mpi_environment  # noqa: E402
 
 
-def pipeline_run(config: str, case: str, run: str, out: Path) -> float:
+def pipeline_run(config: str, case: str, run: str, out: Path, launcher: str | None = None) -> float:
+    """Wall seconds of the pipeline's run of ``case``/``run`` into ``out`` (``launcher``: the
+    ``--mpi-launcher`` override, e.g. 'none' for the bare binary; None: the config's)."""
+    override = [] if launcher is None else ["--mpi-launcher", launcher]
     start = time.perf_counter()
     subprocess.run(
-        [sys.executable, "-m", "pipeline.dem", "--config", config, "--case", case, "--run", run, "--out", str(out)],
+        [sys.executable, "-m", "pipeline.dem", "--config", config, "--case", case, "--run", run, "--out", str(out), *override],
         cwd=REPO, check=True, capture_output=True,
     )
     return time.perf_counter() - start
+
+
+def launcher_pairs(config: str, case: str, run: str, launchers: list[str], repeat: int, tmp: Path) -> None:
+    """The same pipeline run started through each of ``launchers`` in turn, ``repeat`` rounds: what
+    the launcher costs per engine start (the DEM is the same: one rank either way)."""
+    seconds: dict[str, list[float]] = {name: [] for name in launchers}
+    launches = 0
+    for k in range(repeat):
+        for name in launchers:
+            out = tmp / f"launcher-{name}-{k}"
+            seconds[name].append(pipeline_run(config, case, run, out, name))
+            launches = len(list((out / "logs").glob("*.log")))
+            print(f"round {k}: launcher {name!r}: {seconds[name][-1]:.2f} s for {launches} engine starts")
+    first = launchers[0]
+    for name in launchers[1:]:
+        diffs = [a - b for a, b in zip(seconds[first], seconds[name])]
+        mean = sum(diffs) / len(diffs)
+        print(f"{first!r} - {name!r}: {mean:+.2f} s a run over {len(diffs)} rounds ({', '.join(f'{d:+.2f}' for d in diffs)}), "
+              f"{mean / launches:+.3f} s an engine start; ratio of the means "
+              f"{sum(seconds[first]) / sum(seconds[name]):.3f}")
 
 
 DUMP_EVERY = re.compile(r'^variable dump_every string "\d+"$', re.MULTILINE)
@@ -68,7 +94,14 @@ def main() -> None:
     parser.add_argument("--case", default="rheometer")
     parser.add_argument("--run", default="I0.2-P200-r1")
     parser.add_argument("--repeat", type=int, default=2)
+    parser.add_argument("--launchers", nargs="+", metavar="LAUNCHER",
+                        help="instead: time the pipeline run through each of these --mpi-launcher values in turn "
+                             "(e.g. mpirun none) on one rank")
     args = parser.parse_args()
+    if args.launchers:
+        with tempfile.TemporaryDirectory() as tmp:
+            launcher_pairs(args.config, args.case, args.run, args.launchers, args.repeat, Path(tmp))
+        return
     ratios, dump_ratios = [], []
     with tempfile.TemporaryDirectory() as tmp:
         for k in range(args.repeat):
