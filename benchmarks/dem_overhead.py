@@ -99,6 +99,11 @@ def main() -> None:
                              "(e.g. mpirun none) on one rank")
     args = parser.parse_args()
     if args.launchers:
+        import yaml  # the config's own ranks: the launchers are compared on one rank, where 'none' runs the same DEM
+        ranks = yaml.safe_load(Path(args.config).read_text())["dem"]["mpi_ranks"]
+        if ranks != 1:
+            raise SystemExit(f"{args.config}: dem.mpi_ranks {ranks}: --launchers compares launchers on one rank "
+                             "(give a copy of the config with dem.mpi_ranks: 1)")
         with tempfile.TemporaryDirectory() as tmp:
             launcher_pairs(args.config, args.case, args.run, args.launchers, args.repeat, Path(tmp))
         return
