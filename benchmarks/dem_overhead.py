@@ -26,6 +26,8 @@ import tempfile
 import time
 from pathlib import Path
 
+import yaml
+
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
@@ -99,7 +101,7 @@ def main() -> None:
                              "(e.g. mpirun none) on one rank")
     args = parser.parse_args()
     if args.launchers:
-        import yaml  # the config's own ranks: the launchers are compared on one rank, where 'none' runs the same DEM
+        # The launchers are compared on one rank, where 'none' runs the same DEM.
         ranks = yaml.safe_load(Path(args.config).read_text())["dem"]["mpi_ranks"]
         if ranks != 1:
             raise SystemExit(f"{args.config}: dem.mpi_ranks {ranks}: --launchers compares launchers on one rank "

@@ -217,7 +217,7 @@ def model_stage_part(rule: str, case: str, job: str) -> str:
     return {"sensitivities": "intruder sensitivities", "refined": "intruder grid study"}.get(job, "draws merge")
 
 
-def print_model_stage(root: Path, jobs: pd.DataFrame) -> None:
+def print_model_stage(records: list[dict], jobs: pd.DataFrame) -> None:
     """The model stage's slot-seconds (one core per job) by part, and as a share of the DEM's
     slot-seconds (issue 57, item 1)."""
     model = jobs[jobs["rule"].isin(MODEL_STAGE_RULES)]
@@ -225,7 +225,7 @@ def print_model_stage(root: Path, jobs: pd.DataFrame) -> None:
         print("model stage: no finished jobs")
         return
     parts = model.apply(lambda r: model_stage_part(r["rule"], r["case"], r["job"]), axis=1)
-    dem = dem_slot_seconds(root, jobs)
+    dem = dem_slot_seconds(records, jobs)
     total = float(model["seconds"].sum())
     share = f"{100 * total / dem:.1f} % of the DEM's {dem:.0f}" if dem > 0 else "no DEM jobs to compare with"
     print(f"model stage: {total:.0f} slot-seconds in {len(model)} jobs, {share}; by part: "
@@ -244,7 +244,8 @@ def print_timeline(root: Path, slots: int, bare: float | None = None) -> None:
     print("DEM slot-seconds by case:\n" + by_case.to_string(float_format=lambda v: f"{v:.0f}"))
     print(f"after the DEM (every other rule): {jobs.loc[~dem, 'seconds'].sum():.0f} slot-seconds in {int((~dem).sum())} jobs; by rule: "
           + ", ".join(f"{r} {v:.0f}" for r, v in jobs[~dem].groupby("rule")["seconds"].sum().sort_values(ascending=False).items()))
-    print_model_stage(root, jobs)
+    records = dem_records(root)
+    print_model_stage(records, jobs)
     held = concurrency(jobs)
     print("seconds with k jobs running: " + ", ".join(f"{k}: {v:.0f}" for k, v in held.items()))
     # The idle tail: from the last moment the slots were all busy to the end.
@@ -260,19 +261,24 @@ def print_timeline(root: Path, slots: int, bare: float | None = None) -> None:
           + "; ".join(f"{r.rule} {r.case}/{r.job} {r.seconds:.0f} s" for r in tail.itertuples()))
     last_dem = float(jobs.loc[dem, "end"].max()) if dem.any() else float("nan")
     print(f"from the last DEM job's end to the last job's: {end - last_dem:.0f} s")
-    print_dem_speed(root, jobs, slots, wall, end - last_dem, bare)
+    print_dem_speed(root, records, jobs, slots, wall, end - last_dem, bare)
 
 
+
+
+def run_logs(run_dir: Path) -> list[Path]:
+    """The engine logs a DEM folder's own job wrote, one per stage: a shared fill's log, copied into
+    each run that adopted it, is counted in the fill's folder only."""
+    state = run_dir / "state.json"
+    shared = state.exists() and json.loads(state.read_text()).get("fill", {}).get("shared")
+    return [log for log in sorted((run_dir / "logs").glob("*.log")) if not (shared and log.name == "fill.log")]
 
 
 def engine_loops(root: Path) -> tuple[float, float]:
     """Particle-steps and core-seconds inside the engines' own ``run`` loops, from every DEM log of
     ``root`` (runs and shared fills; the loop time is wall time x processes)."""
     steps = seconds = 0.0
-    for log in sorted((root / "dem").glob("*/*/logs/*.log")):
-        state = log.parent.parent / "state.json"
-        if log.name == "fill.log" and state.exists() and json.loads(state.read_text()).get("fill", {}).get("shared"):
-            continue  # a shared fill's log, copied into each run that adopted it: counted in the fill's folder
+    for log in (log for run_dir in sorted((root / "dem").glob("*/*/")) for log in run_logs(run_dir)):
         for t, procs, n_steps, atoms in LOOP.findall(log.read_text(errors="replace")):
             steps += float(n_steps) * float(atoms)
             seconds += float(t) * float(procs)
@@ -286,13 +292,8 @@ def engine_launches(root: Path, dem: pd.DataFrame) -> tuple[int, float]:
     fill job's, not the run's)."""
     launches, outside = 0, 0.0
     for row in dem.itertuples():
-        run_dir = root / "dem" / row.case / row.job
-        state = run_dir / "state.json"
-        shared = state.exists() and json.loads(state.read_text()).get("fill", {}).get("shared")
         loops = 0.0
-        for log in sorted((run_dir / "logs").glob("*.log")):
-            if log.name == "fill.log" and shared:
-                continue
+        for log in run_logs(root / "dem" / row.case / row.job):
             found = LOOP.findall(log.read_text(errors="replace"))
             launches += bool(found)
             loops += sum(float(t) for t, *_ in found)
@@ -306,23 +307,24 @@ def dem_records(root: Path) -> list[dict]:
             for p in sorted((root / "dem").glob(pattern))]
 
 
-def dem_slot_seconds(root: Path, jobs: pd.DataFrame) -> float:
-    """The DEM jobs' slot-seconds: each job's wall seconds x its MPI ranks (both rules, runs and
-    shared fills, keep their benchmark files under benchmarks/dem/)."""
-    ranks = {(r["case"], r["run"]): r.get("mpi_ranks", 1) for r in dem_records(root)}
+def dem_slot_seconds(records: list[dict], jobs: pd.DataFrame) -> float:
+    """The DEM jobs' slot-seconds: each job's wall seconds x its MPI ranks from its record (both
+    rules, runs and shared fills, keep their benchmark files under benchmarks/dem/)."""
+    ranks = {(r["case"], r["run"]): r.get("mpi_ranks", 1) for r in records}
     return float(sum(row.seconds * ranks.get((row.case, row.job), 1) for row in jobs[jobs["rule"] == "dem"].itertuples()))
 
 
-def print_dem_speed(root: Path, jobs: pd.DataFrame, slots: int, wall: float, tail: float, bare: float | None) -> None:
+def print_dem_speed(root: Path, records: list[dict], jobs: pd.DataFrame, slots: int, wall: float, tail: float,
+                    bare: float | None) -> None:
     """Issue 57, item 4: the wall against 1.05 x the DEM's slot-seconds over the slots plus the tail
     after the last DEM job, and the DEM's particle-steps per slot-second (the jobs' own seconds x
     their ranks) against the engine's inside its loops and, with ``bare``, alone on the same bed."""
-    if not dem_records(root):
+    if not records:
         print("DEM: no finished runs (dem/*/*/run.json): no DEM speed to report")
         return
     runs = run_costs(root)
     dem = jobs[jobs["rule"] == "dem"]
-    slot_s = dem_slot_seconds(root, jobs)
+    slot_s = dem_slot_seconds(records, jobs)
     bound = 1.05 * slot_s / slots + tail
     print(f"DEM jobs (runs and shared fills): {len(dem)}, {slot_s:.0f} slot-seconds; wall {wall:.0f} s against "
           f"1.05 x {slot_s:.0f} / {slots} + {tail:.0f} s tail = {bound:.0f} s: ratio {wall / bound:.3f} "
