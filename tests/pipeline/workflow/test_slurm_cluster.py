@@ -1,17 +1,22 @@
 """The reduced workflow on a real SLURM cluster (tests/slurm_cluster.py: Debian's slurm-wlm 22.05
 and munge, one node, started here as root and stopped by pid), through the executor plugin and
-profiles/slurm, with LIGGGHTS on 2 MPI ranks started by ``srun`` inside each DEM job's allocation.
+profiles/slurm.
 
 What it shows:
 - jobs reach SLURM: every rule's job is in slurmctld's log and ran as a SLURM job;
-- the DEM runs used the ranks the profile asked for (LIGGGHTS's own log: "1 by 1 by 2 MPI
-  processor grid" / "2 MPI processes"), and run.json records them;
-- the scores equal the local reduced run's (``reduced_results``, same config, seeds and MPI
-  decomposition: config/ci.yaml runs the DEM on 2 ranks too) to 1e-12 relative, and a DEM run's
-  dumps are byte-identical: LIGGGHTS is deterministic for a given domain split;
+- the DEM jobs ran as the local reduced run does (config/ci.yaml: one rank), one SLURM task each
+  with no MPI launcher (the plugin refuses an MPI job of one task; the bare binary gives the same
+  bytes as ``mpirun -n 1``), and run.json and LIGGGHTS's log ("1 by 1 by 1 MPI processor grid") say so;
+- the scores equal the local reduced run's (``reduced_results``, same config, seeds and domain
+  split) to 1e-12 relative, and a DEM run's dumps are byte-identical: LIGGGHTS is deterministic
+  for a given domain split;
 - a DEM job killed by SLURM (``scancel`` while it runs a chunk) fails loudly, keeps its
   committed chunks, and the workflow's retry (profile ``retries``) completes it from there: its
-  fill and early chunks are not run again.
+  fill and early chunks are not run again;
+- the profile's MPI path: a DEM run started in a batch allocation of 2 tasks with
+  ``--mpi-launcher srun --mpi-ranks 2``, as the profile's ``dem`` rule starts it, runs LIGGGHTS on
+  the 2 ranks (its log: "2 by 1 by 1 MPI processor grid"), keeps every grain, and its wall
+  friction agrees with the local one-rank run within the noise (:func:`test_an_mpi_dem_run_starts_its_ranks_by_srun`).
 LIGGGHTS runs through SLURM for three DEM runs (:data:`THROUGH_SLURM`), and their dump stores and
 fields; the other runs' folders, dump stores and fields are the local reduced run's, copied in
 before the start (a dry run checks that exactly the three are left to do), so the suite does not
@@ -28,6 +33,7 @@ from __future__ import annotations
 import json
 import math
 import re
+import shlex
 import shutil
 import subprocess
 import sys
@@ -39,13 +45,18 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from tests.pipeline.dem.test_planar_run import (assert_grains_kept_and_friction_agrees, fastest_rheometer_run,
+                                                production_stages, rerun_command)
 from tests.slurm_cluster import Cluster, local_cluster
 
 pytestmark = [pytest.mark.liggghts, pytest.mark.slurm]
 
 REPO = Path(__file__).resolve().parents[3]
 PROFILE = REPO / "profiles" / "slurm"
-RANKS = 2
+#: The local reduced run's ranks per DEM run (config/ci.yaml), which the workflow's DEM jobs keep.
+RANKS = 1
+#: Ranks of the MPI run started by srun in a batch allocation (the profile's path for a DEM job).
+MPI_RANKS = 2
 #: The DEM run the test cancels: the longest of the reduced set, so it is caught inside a chunk.
 CANCELLED = ("shear_gravity", "r1")
 #: The DEM runs LIGGGHTS computes through SLURM: the cancelled one (resumed, its dumps are compared
@@ -66,9 +77,12 @@ def slurm_command(out: Path) -> list[str]:
         sys.executable, "-m", "snakemake", "--profile", str(PROFILE), "--configfile", "config/ci.yaml",
         "--config", f"output_root={out}", f"models={{names: [{', '.join(SLURM_MODELS)}]}}", "--jobs", "4",
         "--default-resources", "slurm_partition=test", "mem_mb=1000", "runtime=30", "cpus_per_task=1", "tasks=1",
-        # --set-resources replaces the profile's whole set: the DEM's launcher is named again.
+        # --set-resources replaces the profile's whole set. One task, as the local run's one rank,
+        # with no MPI launcher: the plugin (2.8) refuses an MPI job of one task ("'tasks' must be
+        # greater than 1"), and an empty ``mpi`` makes the job a plain one, the rule's command then
+        # starting the bare binary (the same bytes as ``mpirun -n 1``, docs/scaling.md).
         "--set-resources", *[f"{rule}:{item}" for rule in ("dem", "dem_fill")
-                             for item in ("mpi=srun", f"tasks={RANKS}", "cpus_per_task=1", "mem_mb_per_cpu=1000", "mem_mb=0", "runtime=30")],
+                             for item in ("mpi=''", f"tasks={RANKS}", "cpus_per_task=1", "mem_mb=1000", "runtime=30")],
         "dump_store:mem_mb=2000", "fields:mem_mb=2000", "calibrate:mem_mb=2000", "report:mem_mb=2000",
         "failure_catalogue:runtime=30",
         "--slurm-status-command", "squeue", "--slurm-logdir", str(out / "logs" / "slurm"),
@@ -150,6 +164,21 @@ def cancel_mid_chunk(cluster: Cluster, run_dir: Path, seen: dict, timeout: float
     seen["error"] = "the job to cancel was not seen running with a committed chunk"
 
 
+def mpi_run_in_allocation(cluster: Cluster, local: Path, folder: Path) -> dict:
+    """The local reduced run's fastest rheometer state again, as a batch job of :data:`MPI_RANKS`
+    tasks whose command starts LIGGGHTS by ``srun -n 2``, as the profile's ``dem`` rule does
+    (``--mpi-launcher srun``); waited for (``sbatch --wait``)."""
+    record = fastest_rheometer_run(local)
+    folder.mkdir(parents=True)
+    command = shlex.join(rerun_command(record, local, folder / "run", "srun", MPI_RANKS))
+    proc = subprocess.run(["sbatch", "--wait", "--parsable", "-p", cluster.partition, f"--ntasks={MPI_RANKS}", "--cpus-per-task=1",
+                           "--mem-per-cpu=1000", "--time=30", f"--chdir={REPO}", f"--output={folder / 'job.log'}",
+                           f"--wrap={command}"], env=cluster.env, capture_output=True, text=True, check=False, timeout=900)
+    log = folder / "job.log"
+    return {"record": record, "dir": folder / "run", "returncode": proc.returncode,
+            "output": proc.stdout + proc.stderr + (log.read_text()[-3000:] if log.exists() else "")}
+
+
 @pytest.fixture(scope="module")
 def slurm_run(tmp_path_factory: pytest.TempPathFactory, reduced_results: Path) -> dict:
     base = tmp_path_factory.mktemp("slurm")
@@ -165,12 +194,14 @@ def slurm_run(tmp_path_factory: pytest.TempPathFactory, reduced_results: Path) -
                               check=False, timeout=1800)
         seconds = time.monotonic() - start
         watcher.join(timeout=5)
+        mpi = mpi_run_in_allocation(cluster, reduced_results, base / "mpi") if proc.returncode == 0 else {}
         ctld_log = cluster.log("slurmctld")
         jobs = cluster.run("squeue", "-h", "-t", "all", "-o", "%i|%T|%k|%D|%C", check=False).stdout
     if proc.returncode != 0:
         pytest.fail(f"workflow through SLURM failed (exit {proc.returncode}):\n{proc.stdout[-4000:]}\n{proc.stderr[-6000:]}")
     print(f"\nSLURM workflow: {seconds:.0f} s wall; jobs:\n{jobs}")
-    return {"out": out, "seen": seen, "ctld_log": ctld_log, "jobs": jobs, "seconds": seconds, "stderr": proc.stderr}
+    return {"out": out, "seen": seen, "ctld_log": ctld_log, "jobs": jobs, "seconds": seconds, "stderr": proc.stderr,
+            "mpi": mpi}
 
 
 def test_jobs_ran_as_slurm_jobs(slurm_run: dict) -> None:
@@ -187,11 +218,12 @@ def test_jobs_ran_as_slurm_jobs(slurm_run: dict) -> None:
     assert slurm_run["ctld_log"].count("_slurm_rpc_submit_batch_job") == len(rows)
 
 
-def test_dem_ran_on_the_ranks_the_profile_asked_for(slurm_run: dict) -> None:
+def test_dem_ran_on_the_ranks_the_local_run_used(slurm_run: dict) -> None:
     records = [slurm_run["out"] / "dem" / case / run / "run.json" for case, run in THROUGH_SLURM]
     for path in records:
         run = json.loads(path.read_text())
-        assert run["mpi_ranks"] == RANKS and run["mpi_launcher"] == "srun", path
+        # One task, no launcher: the job's command started the bare binary.
+        assert run["mpi_ranks"] == RANKS and run["mpi_launcher"] == "", path
         stage = next(c["stage"] for c in json.loads((path.parent / "state.json").read_text())["chunks"] if c["kind"] == "production")
         log = (path.parent / "logs" / f"{stage}.log").read_text()
         grids = [math.prod(int(n) for n in g) for g in re.findall(r"(\d+) by (\d+) by (\d+) MPI processor grid", log)]
@@ -199,8 +231,8 @@ def test_dem_ran_on_the_ranks_the_profile_asked_for(slurm_run: dict) -> None:
 
 
 def test_scores_equal_the_local_run(slurm_run: dict, reduced_results: Path) -> None:
-    """Same config, seeds and domain split (2 ranks, 2 by 1 by 1, locally by mpirun and here by
-    srun): the DEM is bitwise the same, so every score is equal. (Across rank counts it would not
+    """Same config, seeds and domain split (one rank: locally by ``mpirun -n 1``, here the bare
+    binary in a one-task job): the DEM is bitwise the same, so every score is equal. (Across rank counts it would not
     be: LIGGGHTS is deterministic for a given decomposition only, and a chaotic flow turns the
     different summation order into an independent realisation, whose scores differ by their whole
     realisation scatter, calibration included: 1 rank against 2 moved fluidity_micro_log_rmse by
@@ -220,6 +252,20 @@ def test_scores_equal_the_local_run(slurm_run: dict, reduced_results: Path) -> N
     run = CANCELLED
     for dump in sorted((reduced_results / "dem" / run[0] / run[1] / "dumps").glob("particles_*.dump")):
         assert dump.read_bytes() == (slurm_run["out"] / "dem" / run[0] / run[1] / "dumps" / dump.name).read_bytes(), dump.name
+
+
+def test_an_mpi_dem_run_starts_its_ranks_by_srun(slurm_run: dict) -> None:
+    """The profile's MPI path: a batch job of 2 tasks whose DEM command starts LIGGGHTS by
+    ``srun -n 2`` ran on 2 ranks splitting the periodic plane, kept every grain, and its wall
+    friction agrees with the local one-rank run within the noise (another realisation)."""
+    mpi = slurm_run["mpi"]
+    assert mpi and mpi["returncode"] == 0, mpi.get("output", "the workflow through SLURM failed first")
+    run = json.loads((mpi["dir"] / "run.json").read_text()) | {"_dir": mpi["dir"]}
+    assert run["mpi_ranks"] == MPI_RANKS and run["mpi_launcher"] == "srun"
+    for stage in production_stages(run):
+        log = (mpi["dir"] / "logs" / f"{stage}.log").read_text()
+        assert f"{MPI_RANKS} by 1 by 1 MPI processor grid" in log and f"{MPI_RANKS} procs" in log, stage
+    assert_grains_kept_and_friction_agrees(run, mpi["record"])
 
 
 def test_cancelled_dem_job_resumed_from_its_committed_chunks(slurm_run: dict) -> None:
