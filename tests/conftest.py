@@ -29,9 +29,12 @@ REPO = Path(__file__).resolve().parent.parent
 
 
 def _reduced_command(out: Path) -> list[str]:
-    """The reduced workflow (config/ci.yaml) into ``out`` on every core."""
+    """The reduced workflow (config/ci.yaml) into ``out`` on every core, its DEM and coarse-graining
+    first (``--prioritize`` the fields' rules and what they need): the SLURM rerun
+    (tests/pipeline/workflow/test_slurm_cluster.py) copies them, then runs beside the models."""
     return [
         sys.executable, "-m", "snakemake", "--cores", str(os.cpu_count() or 1),
+        "--prioritize", "fields", "intruder_fields",
         "--configfile", "config/ci.yaml", "--config", f"output_root={out}",
         "--directory", str(REPO), "--snakefile", str(REPO / "Snakefile"),
     ]
@@ -74,6 +77,8 @@ def _missing(flow: BackgroundWorkflow) -> bool:
     return shutil.which(str(flow.engine)) is None
 #: The workflows started: fixture name -> ``out`` (output root), ``log`` (stdout and stderr), ``proc``.
 _STARTED: dict[str, dict[str, Any]] = {}
+#: The test modules whose ``start_at_collection`` ran (their ``stop_at_unconfigure`` runs at the end).
+_EARLY_MODULES: list[Any] = []
 
 
 def _group(item: pytest.Item, needing: dict[str, set[str]]) -> int:
@@ -106,10 +111,32 @@ def pytest_collection_modifyitems(session: pytest.Session, config: pytest.Config
         with open(log, "w") as stream:
             proc = subprocess.Popen(command, cwd=REPO, stdout=stream, stderr=subprocess.STDOUT, text=True)
         _STARTED[flow.fixture] = {"out": out, "log": log, "proc": proc}
+    # Work a test module starts now, beside the workflows (the SLURM rerun: it waits for the local
+    # DEM, then runs while the local models compute): its ``start_at_collection``.
+    for module in _modules(items):
+        start = getattr(module, "start_at_collection", None)
+        if callable(start):
+            start(config._tmp_path_factory, _STARTED)
+            _EARLY_MODULES.append(module)
+
+
+def _modules(items: list[pytest.Item]) -> list[Any]:
+    """The test modules of ``items``, once each, in order."""
+    seen: dict[str, Any] = {}
+    for item in items:
+        module = getattr(item, "module", None)
+        if module is not None:
+            seen.setdefault(module.__name__, module)
+    return list(seen.values())
 
 
 def pytest_unconfigure(config: pytest.Config) -> None:
-    """A session that ends before a background workflow does (an interrupt, -x) stops it."""
+    """A session that ends before a background workflow does (an interrupt, -x) stops it, and the
+    work a module started at collection (its ``stop_at_unconfigure``)."""
+    for module in _EARLY_MODULES:
+        stop = getattr(module, "stop_at_unconfigure", None)
+        if callable(stop):
+            stop()
     for started in _STARTED.values():
         proc = started["proc"]
         if proc.poll() is None:

@@ -40,11 +40,13 @@ import sys
 import threading
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
 import pytest
 
+from pipeline.common.config import load_config
 from tests.pipeline.dem.test_planar_run import (assert_grains_kept_and_friction_agrees, fastest_rheometer_run,
                                                 production_stages, rerun_command)
 from tests.slurm_cluster import Cluster, local_cluster
@@ -175,37 +177,127 @@ def mpi_run_in_allocation(cluster: Cluster, local: Path, folder: Path) -> dict:
                            "--mem-per-cpu=1000", "--time=30", f"--chdir={REPO}", f"--output={folder / 'job.log'}",
                            f"--wrap={command}"], env=cluster.env, capture_output=True, text=True, check=False, timeout=900)
     log = folder / "job.log"
-    return {"record": record, "dir": folder / "run", "returncode": proc.returncode,
+    return {"record": record, "dir": folder / "run", "returncode": proc.returncode, "job": proc.stdout.strip().split(";")[0],
             "output": proc.stdout + proc.stderr + (log.read_text()[-3000:] if log.exists() else "")}
 
 
-@pytest.fixture(scope="module")
-def slurm_run(tmp_path_factory: pytest.TempPathFactory, reduced_results: Path) -> dict:
-    base = tmp_path_factory.mktemp("slurm")
+def local_outputs(local: Path, runs: set[tuple[str, str]]) -> list[Path]:
+    """The benchmark files Snakemake writes when the jobs that make ``runs``' DEM folders, dump
+    stores and fields in the local root have ended: a shared fill's DEM job, a run's fields job,
+    and an intruder run's rod-frame fields job."""
+    geometry = {case: c["geometry"] for case, c in load_config(REPO / "config" / "ci.yaml")["cases"].items()}
+    paths = []
+    for case, run in sorted(runs):
+        if run.startswith("fill-"):
+            paths.append(local / "benchmarks" / "dem" / case / f"{run}.tsv")
+            continue
+        paths.append(local / "benchmarks" / "fields" / case / f"{run}.tsv")
+        if geometry[case] == "intruder":
+            paths.append(local / "benchmarks" / "fields_xz" / case / f"{run}.tsv")
+    return paths
+
+
+def wait_for_local_dem(local: Path, runs: set[tuple[str, str]], workflow: subprocess.Popen | None,
+                       timeout: float = 3000.0) -> None:
+    """Wait until the local reduced run has made every DEM folder, dump store and fields file of
+    ``runs`` (its DEM and coarse-graining come first: ``tests/conftest.py`` prioritises them), or
+    stop if it ended without them."""
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        missing = [p for p in local_outputs(local, runs) if not p.exists()]
+        if not missing:
+            return
+        if _EARLY.get("stopping"):
+            raise RuntimeError("the test session ended before the local DEM did")
+        if workflow is not None and workflow.poll() is not None:
+            raise RuntimeError(f"the local reduced workflow ended (exit {workflow.returncode}) without {missing[0]}")
+        time.sleep(2.0)
+    raise RuntimeError(f"the local reduced workflow did not make {missing[0]} within {timeout:g} s")
+
+
+def slurm_rerun(base: Path, local: Path, workflow: subprocess.Popen | None) -> dict:
+    """Start the cluster, wait for the local run's DEM and fields, copy them in, run the workflow
+    through the profile (cancelling one DEM job mid-chunk), then the MPI run in an allocation."""
     out = base / "results"
     with local_cluster(base / "cluster") as cluster:
-        seed_local_runs(reduced_results, out, cluster.env)
+        wait_for_local_dem(local, planned_jobs(out, cluster.env)["dem"], workflow)
+        seed_local_runs(local, out, cluster.env)
         seen: dict = {}
         watcher = threading.Thread(target=cancel_mid_chunk, args=(cluster, out / "dem" / CANCELLED[0] / CANCELLED[1], seen),
                                    daemon=True)
         watcher.start()
         start = time.monotonic()
-        proc = subprocess.run(slurm_command(out), cwd=REPO, env=cluster.env, capture_output=True, text=True,
-                              check=False, timeout=1800)
+        proc = subprocess.Popen(slurm_command(out), cwd=REPO, env=cluster.env, stdout=subprocess.PIPE,
+                                stderr=subprocess.PIPE, text=True)
+        _EARLY["proc"] = proc  # (stop_at_unconfigure ends it if the session ends first)
+        stdout, stderr = proc.communicate(timeout=1800)
         seconds = time.monotonic() - start
         watcher.join(timeout=5)
-        mpi = mpi_run_in_allocation(cluster, reduced_results, base / "mpi") if proc.returncode == 0 else {}
+        mpi = mpi_run_in_allocation(cluster, local, base / "mpi") if proc.returncode == 0 and not _EARLY.get("stopping") else {}
         ctld_log = cluster.log("slurmctld")
         jobs = cluster.run("squeue", "-h", "-t", "all", "-o", "%i|%T|%k|%D|%C", check=False).stdout
-    if proc.returncode != 0:
-        pytest.fail(f"workflow through SLURM failed (exit {proc.returncode}):\n{proc.stdout[-4000:]}\n{proc.stderr[-6000:]}")
-    print(f"\nSLURM workflow: {seconds:.0f} s wall; jobs:\n{jobs}")
-    return {"out": out, "seen": seen, "ctld_log": ctld_log, "jobs": jobs, "seconds": seconds, "stderr": proc.stderr,
-            "mpi": mpi}
+    return {"out": out, "seen": seen, "ctld_log": ctld_log, "jobs": jobs, "seconds": seconds, "stderr": stderr,
+            "stdout": stdout, "returncode": proc.returncode, "mpi": mpi}
+
+
+#: The rerun started at collection (:func:`start_at_collection`): its thread, and its result or error.
+_EARLY: dict[str, Any] = {}
+
+
+def start_at_collection(tmp_path_factory: pytest.TempPathFactory, started: dict[str, dict[str, Any]]) -> None:
+    """Called by ``tests/conftest.py`` once the background workflows are started: run the SLURM
+    rerun in a thread from now on. It waits for the local run's DEM and fields, then runs beside
+    the local run's models and the other tests: its jobs spend most of their wall time in the
+    plugin's status checks (busy 0.38 of 2 slots, 2026-12-07), which the local models fill."""
+    local = started.get("reduced_results")
+    if local is None:
+        return
+    base = tmp_path_factory.mktemp("slurm")
+
+    def work() -> None:
+        try:
+            _EARLY["result"] = slurm_rerun(base, local["out"], local["proc"])
+        except BaseException as exc:  # noqa: BLE001 (handed to the fixture, which fails with it)
+            _EARLY["error"] = exc
+
+    _EARLY["thread"] = threading.Thread(target=work, daemon=True)
+    _EARLY["thread"].start()
+
+
+def stop_at_unconfigure() -> None:
+    """Called by ``tests/conftest.py`` at the session's end: a session that ends before the rerun
+    (an interrupt, -x) stops its workflow, and its thread then stops the cluster's daemons."""
+    _EARLY["stopping"] = True
+    proc = _EARLY.get("proc")
+    if proc is not None and proc.poll() is None:
+        proc.terminate()
+    thread = _EARLY.get("thread")
+    if thread is not None:
+        thread.join(timeout=300)
+
+
+@pytest.fixture(scope="module")
+def slurm_run(tmp_path_factory: pytest.TempPathFactory, reduced_results: Path) -> dict:
+    if "thread" in _EARLY:
+        _EARLY["thread"].join()
+        if "error" in _EARLY:
+            raise _EARLY["error"]
+        run = _EARLY["result"]
+    else:  # not started at collection (a test selected on its own by a dynamic fixture request)
+        run = slurm_rerun(tmp_path_factory.mktemp("slurm"), reduced_results, None)
+    if run["returncode"] != 0:
+        pytest.fail(f"workflow through SLURM failed (exit {run['returncode']}):\n{run['stdout'][-4000:]}\n{run['stderr'][-6000:]}")
+    print(f"\nSLURM workflow: {run['seconds']:.0f} s wall; jobs:\n{run['jobs']}")
+    return run
 
 
 def test_jobs_ran_as_slurm_jobs(slurm_run: dict) -> None:
     rows = [line.split("|") for line in slurm_run["jobs"].splitlines() if line.strip()]
+    # The MPI run's batch job (test_an_mpi_dem_run_starts_its_ranks_by_srun) is no workflow job.
+    mpi_job = slurm_run["mpi"].get("job")
+    assert mpi_job and sum(r[0] == mpi_job for r in rows) == 1, (mpi_job, slurm_run["jobs"])
+    submitted = len(rows)
+    rows = [r for r in rows if r[0] != mpi_job]
     states = pd.Series([r[1] for r in rows]).value_counts()
     steps = re.findall(r"(\d+) of (\d+) steps \(100%\) done", slurm_run["stderr"])
     print(f"job states in squeue: {states.to_dict()}; Snakemake: {steps[-1][0] if steps else '?'} jobs done")
@@ -215,7 +307,7 @@ def test_jobs_ran_as_slurm_jobs(slurm_run: dict) -> None:
     assert states.get("COMPLETED", 0) == int(steps[-1][0])
     assert states.get("CANCELLED", 0) == 1
     assert set(states.index) <= {"COMPLETED", "CANCELLED"}
-    assert slurm_run["ctld_log"].count("_slurm_rpc_submit_batch_job") == len(rows)
+    assert slurm_run["ctld_log"].count("_slurm_rpc_submit_batch_job") == submitted
 
 
 def test_dem_ran_on_the_ranks_the_local_run_used(slurm_run: dict) -> None:
