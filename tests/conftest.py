@@ -92,7 +92,8 @@ def _group(item: pytest.Item, needing: dict[str, set[str]]) -> int:
 def pytest_collection_modifyitems(session: pytest.Session, config: pytest.Config, items: list[pytest.Item]) -> None:
     """Start the real workflows as soon as the collected tests are known to need them, and run the
     tests that need none first, while they compute (issue 57: the suite's wall time). The
-    workflows' DEM runs one after another, so the single-core unit tests fill the rest of the cores.
+    workflows' one-rank DEM jobs and model jobs share the cores with the single-core unit tests (the
+    LAMMPS workflow at a lower priority).
     Whole test files move, so that no module-scoped fixture is set up twice; the order within each
     group is pytest's."""
     if config.option.collectonly:
