@@ -21,7 +21,7 @@ import numpy as np
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
-from tests.pipeline.dem.test_adopted_packing import _fill, packing_shifts  # noqa: E402
+from tests.pipeline.dem.test_adopted_packing import packing_shifts, settled_bed  # noqa: E402
 
 
 def main() -> None:
@@ -34,8 +34,8 @@ def main() -> None:
         for seed in args.seeds:
             for pourer, shearer in (("liggghts", "lammps"), ("lammps", "liggghts")):
                 with tempfile.TemporaryDirectory() as tmp:
-                    source = _fill(Path(tmp) / "source", pourer, None, seed, ranks)
-                    adopted = _fill(Path(tmp) / "adopted", shearer, Path(tmp) / "source", seed, ranks)
+                    source = settled_bed(Path(tmp) / "source", pourer, None, seed, ranks)
+                    adopted = settled_bed(Path(tmp) / "adopted", shearer, Path(tmp) / "source", seed, ranks)
                     shift, dz, buried, bound, radius = packing_shifts(source, adopted)
                 s = shift[buried]
                 row = {"p95": float(np.percentile(s, 95)), "mean_dz": float(abs(dz.mean())),

@@ -8,7 +8,6 @@ Usage: ``python benchmarks/rheometer_homogeneity.py ROOT [ROOT ...] [--margin 3.
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 from pathlib import Path
 
@@ -16,7 +15,7 @@ REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
 from pipeline.calibration.calibrate import bulk_state  # noqa: E402
-from pipeline.calibration.wall_slip import MAX_SPREAD, MIN_INERTIAL, rheometer_state  # noqa: E402
+from pipeline.calibration.wall_slip import calibrates_slip, rheometer_state  # noqa: E402
 
 
 def main() -> None:
@@ -32,8 +31,7 @@ def main() -> None:
         cells, used = [], 0
         for path in files:
             state = rheometer_state(path, bulk_state(path, args.margin))
-            ok = (math.isfinite(state["slip_length"]) and state["slip_length_err"] > 0
-                  and state["I"] >= MIN_INERTIAL and state["I_spread_over_I"] <= MAX_SPREAD)
+            ok = calibrates_slip(state)
             used += ok
             cells.append(f"{path.stem} I {state['I']:.3f} spread {state['I_spread_over_I']:.2f} I, "
                          f"b {state['slip_length_over_d']:.2f} d{' (used)' if ok else ''}")

@@ -34,6 +34,7 @@ Usage: ``python benchmarks/workflow_cost.py --fixed /work/results-default --targ
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import math
 import sys
@@ -264,8 +265,6 @@ def print_timeline(root: Path, slots: int, bare: float | None = None) -> None:
     print_dem_speed(root, records, jobs, slots, wall, end - last_dem, bare)
 
 
-
-
 def run_logs(run_dir: Path) -> list[Path]:
     """The engine logs a DEM folder's own job wrote, one per stage: a shared fill's log, copied into
     each run that adopted it, is counted in the fill's folder only."""
@@ -274,12 +273,19 @@ def run_logs(run_dir: Path) -> list[Path]:
     return [log for log in sorted((run_dir / "logs").glob("*.log")) if not (shared and log.name == "fill.log")]
 
 
+@functools.lru_cache(maxsize=None)
+def log_loops(log: Path) -> tuple[tuple[str, ...], ...]:
+    """Every ``run`` loop's timing in an engine log (seconds, processes, steps, atoms), read once
+    for both the loops' totals and the launches."""
+    return tuple(LOOP.findall(log.read_text(errors="replace")))
+
+
 def engine_loops(root: Path) -> tuple[float, float]:
     """Particle-steps and core-seconds inside the engines' own ``run`` loops, from every DEM log of
     ``root`` (runs and shared fills; the loop time is wall time x processes)."""
     steps = seconds = 0.0
     for log in (log for run_dir in sorted((root / "dem").glob("*/*/")) for log in run_logs(run_dir)):
-        for t, procs, n_steps, atoms in LOOP.findall(log.read_text(errors="replace")):
+        for t, procs, n_steps, atoms in log_loops(log):
             steps += float(n_steps) * float(atoms)
             seconds += float(t) * float(procs)
     return steps, seconds
@@ -294,7 +300,7 @@ def engine_launches(root: Path, dem: pd.DataFrame) -> tuple[int, float]:
     for row in dem.itertuples():
         loops = 0.0
         for log in run_logs(root / "dem" / row.case / row.job):
-            found = LOOP.findall(log.read_text(errors="replace"))
+            found = log_loops(log)
             launches += bool(found)
             loops += sum(float(t) for t, *_ in found)
         outside += row.seconds - loops

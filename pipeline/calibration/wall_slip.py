@@ -71,6 +71,14 @@ def rheometer_state(path: Path, state: dict[str, Any]) -> dict[str, float]:
             "slip_length_over_d": b / a["d"]}
 
 
+def calibrates_slip(state: dict[str, float]) -> bool:
+    """Whether a rheometer run's :func:`rheometer_state` enters the slip length's mean: a finite b
+    with an error, and homogeneous shear (I >= :data:`MIN_INERTIAL`, bulk I spread under
+    :data:`MAX_SPREAD` I)."""
+    return bool(math.isfinite(state["slip_length"]) and state["slip_length_err"] > 0
+                and state["I"] >= MIN_INERTIAL and state["I_spread_over_I"] <= MAX_SPREAD)
+
+
 def scatter_mean(values: np.ndarray, errors: np.ndarray) -> dict[str, float]:
     """Equal-weight mean, its standard error from the values' scatter, and the reduced chi2 of the
     values about it with their stated errors (how far the scatter exceeds them)."""
@@ -122,8 +130,7 @@ def calibrate_wall(source: str, rheometer_files: Sequence[Path], states: list[di
         raise CalibrationError(f"calibration.wall_slip = {source!r}: choose one of {', '.join(SOURCES)}")
     per_state = [rheometer_state(Path(f), s) for f, s in zip(rheometer_files, states)]
     for state in per_state:
-        state["used"] = bool(math.isfinite(state["slip_length"]) and state["slip_length_err"] > 0
-                             and state["I"] >= MIN_INERTIAL and state["I_spread_over_I"] <= MAX_SPREAD)
+        state["used"] = calibrates_slip(state)
     good = [s for s in per_state if s["used"]]
     try:
         rheometer = scatter_mean(np.array([s["slip_length"] for s in good]), np.array([s["slip_length_err"] for s in good]))

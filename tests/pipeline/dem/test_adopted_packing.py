@@ -63,8 +63,8 @@ def test_only_liggghts_pour_lines_are_removed_and_a_changed_template_is_refused(
         adopted_packing.without_pour(template.replace("ins\n", "pour\n"), "liggghts", Path("fill.in"))
 
 
-def _fill(root: Path, engine: str, packing_from: Path | None, seed: int | None = None,
-          mpi_ranks: int | None = None) -> PlanarShearRun:
+def settled_bed(root: Path, engine: str, packing_from: Path | None, seed: int | None = None,
+                mpi_ranks: int | None = None) -> PlanarShearRun:
     """Pour (or adopt) ci.yaml's shear_gravity r1 under ``root`` with ``engine``, damping off
     (``seed`` and ``mpi_ranks``: another realisation than ci.yaml's)."""
     config = run_config(load_config(CI), "shear_gravity", "r1")
@@ -130,8 +130,8 @@ def test_each_engine_keeps_the_other_engines_settled_packing_at_rest(tmp_path: P
     may move inside its cage, never out of it: each less than the smallest grain's radius. Over
     16 realisations (seeds 7-10, both directions, one and two ranks:
     ``benchmarks/adopted_packing_spread.py``, benchmarks/records/adopted_packing_spread_2026-12-07.txt)."""
-    source = _fill(tmp_path / "source", pourer, None)
-    adopted = _fill(tmp_path / "adopted", shearer, tmp_path / "source")
+    source = settled_bed(tmp_path / "source", pourer, None)
+    adopted = settled_bed(tmp_path / "adopted", shearer, tmp_path / "source")
     assert adopted.state["fill"]["packing_from"]["path"].endswith("source/dem/shear_gravity/r1/settled.dump")
     shift, dz, buried, bound, smallest_radius = packing_shifts(source, adopted)
     assert buried.sum() > 0.8 * len(buried)

@@ -185,7 +185,7 @@ def local_outputs(local: Path, runs: set[tuple[str, str]]) -> list[Path]:
     """The benchmark files Snakemake writes when the jobs that make ``runs``' DEM folders, dump
     stores and fields in the local root have ended: a shared fill's DEM job, a run's fields job,
     and an intruder run's rod-frame fields job."""
-    geometry = {case: c["geometry"] for case, c in load_config(REPO / "config" / "ci.yaml")["cases"].items()}
+    geometry = {case: c["geometry"] for case, c in load_config(local / "config.effective.json")["cases"].items()}
     paths = []
     for case, run in sorted(runs):
         if run.startswith("fill-"):
