@@ -4,7 +4,7 @@
 
 One contact between grain 1 (diameter d, held at the origin) and grain 2 (the smallest class,
 d (1 - polydispersity)), the project's material and time step (``material``: E from the stiffness
-rule, e, nu, mu, rho; :func:`pipeline.dem.planar_run.contact_design`), driven kinematically by
+rule, e, nu, mu, rho; :func:`pipeline.dem.contact_scaling.contact_design`), driven kinematically by
 ``fix move`` (``liggghts_inputs/two_grain/contact.in``, ``lammps_inputs/two_grain/contact.in``: the
 same state and the same formulas in both engines) through five phases:
 
@@ -62,7 +62,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from pipeline.common.config import load_config, size_classes  # noqa: E402
 from pipeline.dem.engines import make_engine  # noqa: E402
-from pipeline.dem.planar_run import contact_design  # noqa: E402
+from pipeline.dem.contact_scaling import contact_design  # noqa: E402
 from pipeline.dumps.reader import read_dump  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]

@@ -43,3 +43,7 @@ def dem_run_priority(wildcards):
 
 def dem_fill_priority(wildcards):
     return targets.dem_job_priority(config, wildcards.case, wildcards.fill)
+
+
+def intruder_model_priority(wildcards):
+    return targets.intruder_model_priority(wildcards.model)

@@ -28,7 +28,7 @@ rule model:
 
 
 rule intruder_model:
-    priority: targets.AFTER_DEM_PRIORITY
+    priority: intruder_model_priority
     message:
         "Model {wildcards.model}: intruder speed at the DEM depths of {wildcards.case}"
     conda:
@@ -57,7 +57,7 @@ rule intruder_model:
 # The draws and the grid study start from the nominal states, so they run as jobs of their own
 # (models.intruder_draw_jobs parts of the draws, and the finer grid), merged into one file.
 rule intruder_model_draws:
-    priority: targets.AFTER_DEM_PRIORITY
+    priority: intruder_model_priority
     message:
         "Model {wildcards.model}: intruder draws, part {wildcards.k} of {wildcards.n}"
     conda:
@@ -90,7 +90,7 @@ rule intruder_model_draws:
 # (models.intruder_plastic_u_input, models.intruder_ngf_u_input: sensitivities): one job in place of
 # the draws' parts.
 rule intruder_model_sensitivities:
-    priority: targets.AFTER_DEM_PRIORITY
+    priority: intruder_model_priority
     message:
         "Model {wildcards.model}: intruder u_input from the speed's parameter sensitivities"
     conda:
@@ -118,7 +118,7 @@ rule intruder_model_sensitivities:
 
 
 rule intruder_model_refined:
-    priority: targets.AFTER_DEM_PRIORITY
+    priority: intruder_model_priority
     message:
         "Model {wildcards.model}: intruder grid study"
     conda:
@@ -145,7 +145,7 @@ rule intruder_model_refined:
 
 
 rule intruder_model_draws_merge:
-    priority: targets.AFTER_DEM_PRIORITY
+    priority: intruder_model_priority
     message:
         "Model {wildcards.model}: intruder draws and grid study into one file"
     conda:

@@ -134,13 +134,17 @@ INTRUDER_MODELS: dict[str, IntruderModel] = {
 def intruder_speed(model: str, geometry: PlanarShear, params: Any, intruder: RodIntruder,
                    cell_length_x: float, grid: GridOptions = GridOptions(),
                    planar_options: dict | None = None, case: str | None = None,
-                   warm: IntruderSpeed | None = None) -> IntruderSpeed:
+                   warm: IntruderSpeed | None = None, limit_load: bool = True) -> IntruderSpeed:
     """Steady speed U (m s-1, along +x) of a rod under force F (N m-1, along +x) held at height
     z_i in the periodic planar shear cell of period ``cell_length_x`` (m), by the label's entry
     in ``INTRUDER_MODELS``.
 
     ``warm``: an earlier result of the same label on the same grid (its converged fields and
     pressure start the iteration; e.g. the nominal parameters' solution for a parameter draw).
+    ``limit_load``: where a yield-stress solver finds no steady state, compute the 2D limit load
+    to report a push above it as ``OutOfRangeError`` (the rod fails); False leaves every failure
+    a ``ConvergenceError`` and skips those two driven solves (a parameter draw needs only whether
+    it has a speed).
     ``planar_options`` go to ``continuum.solve`` (estimates only).
 
     Raises KeyError (unknown label), TypeError (wrong parameters), ``OutOfRangeError`` (the model
@@ -159,7 +163,7 @@ def intruder_speed(model: str, geometry: PlanarShear, params: Any, intruder: Rod
     if warm is not None and warm.state is not None and (np.size(next(iter(warm.state.values()))) == solver.grid.n_cells
                                                         or "grid" in warm.state):
         state = warm.state  # (a state with its grid is carried onto this one by the solver)
-    sol = solver.solve(state)
+    sol = solver.solve(state, limit_load=limit_load)
     attrs = dict(sol.attrs)
     attrs.update({f"residual_{k}": float(v) for k, v in sol.residuals.items()})
     return IntruderSpeed(model, sol.speed, sol.converged, sol.iterations, sol.residual, sol.solve_seconds,

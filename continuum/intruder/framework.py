@@ -267,9 +267,10 @@ class RodSolver(ABC):
         new = {k: fill_solid(v, self.mask.solid_cells, self.grid) for k, v in new.items()}
         return flow, new, fill_solid(flow.p, self.mask.solid_cells, self.grid)
 
-    def solve(self, warm: dict[str, np.ndarray] | None = None) -> RodSolution:
+    def solve(self, warm: dict[str, np.ndarray] | None = None, limit_load: bool = True) -> RodSolution:
         """Converged steady solution; ``warm`` is a previous solution's ``state`` on the same
-        grid (the iteration starts there instead of the planar solution).
+        grid (the iteration starts there instead of the planar solution). ``limit_load`` is the
+        yield-stress solvers' (``yield2d``): a rate-dependent law has no limit load to compute.
 
         Where the iteration does not converge within ``max_iterations``, it is tried again
         (``RETRY_DEPTH_FACTOR``) from the same start with a deeper Anderson history, then from

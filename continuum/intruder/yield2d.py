@@ -458,15 +458,19 @@ class YieldRodSolver(RodSolver):
             self._force_fraction = 1.0
             return self.solve_regularised(None)
 
-    def solve(self, warm: dict[str, np.ndarray] | None = None) -> RodSolution:
+    def solve(self, warm: dict[str, np.ndarray] | None = None, limit_load: bool = True) -> RodSolution:
         """``solve_regularised``; where a rod under a given push finds no steady state (it runs
         away, or Newton fails), the limit load is computed (``limit_load``) and, if the push
         exceeds it, ``OutOfRangeError`` reports it as a number (the model's answer: the rod
-        fails). A failure below the computed limit load stays a ``ConvergenceError``."""
+        fails). A failure below the computed limit load stays a ``ConvergenceError``.
+        With ``limit_load`` False every failure stays a ``ConvergenceError`` and no limit load
+        is computed (two driven solves, as long as a failed solve: for a caller that only needs
+        whether there is a speed, e.g. a parameter draw)."""
         try:
             return self._solve_warm_then_cold(warm)
         except ConvergenceError as exc:
-            if self.rod is None or self.driven_speed is not None or self.law.mu_i is not None:
+            if (not limit_load or self.rod is None or self.driven_speed is not None
+                    or self.law.mu_i is not None):
                 raise  # (mu(I) is rate-dependent: no limit load; its failures are failures)
             loads = self.limit_load()
             self.last_limit_load = loads

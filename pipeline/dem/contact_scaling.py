@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass
+from typing import Any
 
 #: Z * nu for a dense frictional sphere packing (coordination x solid fraction); see module doc.
 COORDINATION_TIMES_SOLID_FRACTION = 2.7
@@ -107,4 +108,23 @@ def design_contacts(
         mean_overlap_at_p_max=design_overlap,
         contact_time=t_c,
         dt=dt_over_contact_time * t_c,
+    )
+
+
+def contact_design(config: dict[str, Any]) -> ContactDesign:
+    """The one contact design shared by all cases, so the calibration transfers between them.
+
+    It depends on the material section only (``design_pressure`` sets the stiffness), never on
+    the other cases of the config: a DEM run reads a config that holds its own case alone.
+    """
+    mat = config["material"]
+    return design_contacts(
+        p_max=mat["design_pressure"],
+        d=mat["d"],
+        polydispersity=mat["polydispersity"],
+        rho_s=mat["rho_s"],
+        poisson_ratio=mat["poisson_ratio"],
+        design_overlap=mat["design_overlap"],
+        max_overlap=mat["max_overlap"],
+        dt_over_contact_time=mat["dt_over_contact_time"],
     )

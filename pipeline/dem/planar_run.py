@@ -21,7 +21,7 @@ from pipeline.common.config import (case_production, derived_seed, fill_physics,
                                     run_state, shared_fill_of, size_classes)
 from pipeline.common.formats import RUN_FORMAT_VERSION
 from pipeline.common.provenance import provenance
-from pipeline.dem.contact_scaling import ContactDesign, design_contacts
+from pipeline.dem.contact_scaling import contact_design
 from pipeline.dem.engines import CONTACT_COLUMNS, DELTA_COLUMN, make_engine  # noqa: F401
 # Re-exported: other modules, tests and benchmarks reach the LIGGGHTS templates and launch from here.
 from pipeline.dem import liggghts_render as render  # noqa: F401
@@ -43,25 +43,6 @@ MIN_GAP_OVER_D = 6.0
 WALL_DAMPING_RATIO = 0.1
 #: Kinetic energy per grain, in units of m g d, below which the poured packing counts as settled.
 SETTLED_KE_PER_GRAIN = 1e-3
-
-
-def contact_design(config: dict[str, Any]) -> ContactDesign:
-    """The one contact design shared by all cases, so the calibration transfers between them.
-
-    It depends on the material section only (``design_pressure`` sets the stiffness), never on
-    the other cases of the config: a DEM run reads a config that holds its own case alone.
-    """
-    mat = config["material"]
-    return design_contacts(
-        p_max=mat["design_pressure"],
-        d=mat["d"],
-        polydispersity=mat["polydispersity"],
-        rho_s=mat["rho_s"],
-        poisson_ratio=mat["poisson_ratio"],
-        design_overlap=mat["design_overlap"],
-        max_overlap=mat["max_overlap"],
-        dt_over_contact_time=mat["dt_over_contact_time"],
-    )
 
 
 class PlanarShearRun(ChunkedRun):

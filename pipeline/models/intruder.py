@@ -133,12 +133,16 @@ def scenes_of(runs: list[dict[str, Any]], fields: list[xr.Dataset], params: dict
 
 
 def solve_scene(model: str, parameters: Any, scene: Scene, cells_per_d: float,
-                warm: IntruderSpeed | None = None) -> tuple[IntruderSpeed | None, str | None]:
-    """The label's result for one scene, or None and why it was refused / not converged."""
+                warm: IntruderSpeed | None = None, limit_load: bool = True) -> tuple[IntruderSpeed | None, str | None]:
+    """The label's result for one scene, or None and why it was refused / not converged.
+    ``limit_load`` False: a failed yield-stress solve is not followed by the limit load that
+    would tell a failing rod from an unconverged solve (``continuum.intruder_speed``), for the
+    parameter draws, whose failure only removes the draw."""
     where = f"{scene.depth_over_d:.2f} d" + (f", push {scene.push_over_yield:g} F_y" if scene.force_sweep else "")
     try:
         result = intruder_speed(model, scene.geometry, parameters, scene.rod, scene.cell_length_x,
-                                GridOptions(cells_per_d=cells_per_d), case=scene.label, warm=warm)
+                                GridOptions(cells_per_d=cells_per_d), case=scene.label, warm=warm,
+                                limit_load=limit_load)
     except continuum.OutOfRangeError as exc:
         return None, f"{where}: {exc}"
     except continuum.ConvergenceError as exc:
@@ -152,8 +156,8 @@ def solve_scene(model: str, parameters: Any, scene: Scene, cells_per_d: float,
 
 
 def solve_scenes(model: str, parameters: Any, scenes: list[Scene], cells_per_d: float,
-                 warm: list[IntruderSpeed | None] | None = None,
-                 only: list[bool] | None = None) -> tuple[list[IntruderSpeed | None], list[str | None]]:
+                 warm: list[IntruderSpeed | None] | None = None, only: list[bool] | None = None,
+                 limit_load: bool = True) -> tuple[list[IntruderSpeed | None], list[str | None]]:
     """Every scene (or those where ``only`` is True; the others get None and the reason
     ``NOMINAL_REFUSED``); without ``warm``, a scene at a depth already solved starts from that
     solution."""
@@ -167,7 +171,7 @@ def solve_scenes(model: str, parameters: Any, scenes: list[Scene], cells_per_d: 
             continue
         # (a warm start that fails is retried cold by the solver itself: continuum.intruder)
         start = warm[k] if warm is not None else last.get(scene.target)
-        result, reason = solve_scene(model, parameters, scene, cells_per_d, start)
+        result, reason = solve_scene(model, parameters, scene, cells_per_d, start, limit_load)
         if result is not None and result.state is not None:
             last[scene.target] = result
         results.append(result)

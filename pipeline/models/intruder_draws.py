@@ -67,7 +67,9 @@ def solve_draws(model: str, params: dict[str, Any], ensemble: dict[str, Any], sc
             failures[str(k)] = draw["failed"][model]
             continue
         parameters = model_parameters(params_of_draw(params, draw), model)
-        results, reasons = solve_scenes(model, parameters, scenes, draws_cells_per_d, nominal, predicted)
+        # (a draw that fails is only removed: no limit load to word why, docs/dem_cost.md 30)
+        results, reasons = solve_scenes(model, parameters, scenes, draws_cells_per_d, nominal, predicted,
+                                        limit_load=False)
         for j, (result, reason) in enumerate(zip(results, reasons)):
             if result is None:
                 refused[i, j] = 1

@@ -128,7 +128,7 @@ def _solve_draw(model: str, params: dict[str, Any], ensemble: dict[str, Any], dr
     """The draw's own solve of one scene (warm from the nominal): the check, or a fallback draw."""
     entry = next(d for d in ensemble["draws"] if int(d["draw"]) == draw)
     solved, reason = solve_scene(model, model_parameters(params_of_draw(params, entry), model), scene, cells_per_d,
-                                 result)
+                                 result, limit_load=False)
     if solved is None:
         return None, reason
     return float(solved.speed), None

@@ -29,6 +29,7 @@ from typing import Any
 
 from pipeline.common.config import (RHEOMETER, calibration_runs, case_production, dem_runs, intruder_run, mean_grain_volume,
                                     predecessor_state, run_case, run_state, shared_fill_ids, shared_fill_of)
+from pipeline.dem.contact_scaling import contact_design
 
 #: LIGGGHTS particle-steps per second of one rank on the 2-core machine, two jobs running
 #: (docs/dem_cost.md, sections 9-10: 4.4-5.0 M; 5.3-6.0 M alone on a production bed).
@@ -47,6 +48,14 @@ TAIL_SECONDS = {"calibration": 200.0, "held_out": 100.0}
 INTRUDER_MODEL_SECONDS = 1000.0
 #: Priority of every rule after the DEM (above any DEM rank): they are short and are the tail.
 AFTER_DEM_PRIORITY = 1_000_000
+#: The intruder's 2D models, slowest first: the order their jobs (nominal solves, grid study,
+#: sensitivities or draws) start in when several are ready. Each model's chain (nominal solves,
+#: then its grid study and u_input, then the merge the scores wait for) is the longest after the
+#: DEM, and the slowest started last ran alone at the end: in the suite's reduced run of
+#: 2026-12-07 the volume-averaged sensitivities (36-93 s) started after every other model's jobs
+#: and were 36-50 s of the last minute with one slot idle (docs/dem_cost.md 30). The order is the
+#: reduced run's CPU seconds per model (nominal, grid study and sensitivities together).
+INTRUDER_MODELS_SLOWEST_FIRST = ("volume_averaged", "cosserat", "critical_state", "ngf", "local_mu_i")
 #: Solid fraction of a settled bed (the gap estimate) and of the fill's loose pour.
 BED_SOLID_FRACTION = 0.6
 POUR_SOLID_FRACTION = 0.25
@@ -65,8 +74,7 @@ def _gap(config: dict[str, Any], case: dict[str, Any]) -> float:
 
 
 def _time_step(config: dict[str, Any]) -> float:
-    from pipeline.dem.planar_run import contact_design  # the DEM's own rule for dt
-    return contact_design(config).dt
+    return contact_design(config).dt  # the DEM's own rule for dt
 
 
 def fill_steps(config: dict[str, Any], case: dict[str, Any]) -> float:
@@ -148,3 +156,12 @@ def upward_rank(config: dict[str, Any], case_name: str, job: str) -> float:
 def dem_priority(config: dict[str, Any], case_name: str, job: str) -> int:
     """Snakemake ``priority`` of a DEM job: its upward rank in whole seconds (below :data:`AFTER_DEM_PRIORITY`)."""
     return min(int(round(upward_rank(config, case_name, job))), AFTER_DEM_PRIORITY - 1)
+
+
+def intruder_model_priority(model: str) -> int:
+    """Snakemake ``priority`` of an intruder model's jobs: above every other rule after the DEM,
+    the slowest model's first (:data:`INTRUDER_MODELS_SLOWEST_FIRST`; a model not listed after
+    them). Ordering only: nothing a job computes depends on it."""
+    order = INTRUDER_MODELS_SLOWEST_FIRST
+    rank = order.index(model) if model in order else len(order)
+    return AFTER_DEM_PRIORITY + 1 + len(order) - rank

@@ -13,7 +13,7 @@ from typing import Any
 from pipeline.common.config import (RHEOMETER, ConfigError, calibration_runs, dem_runs, nonlocal_runs, fill_owner_run, predecessor_state, run_config,
                                     shared_fill_of, validate_config)
 from pipeline.common.layout import fields_paths, root
-from pipeline.workflow.priorities import AFTER_DEM_PRIORITY, dem_priority
+from pipeline.workflow.priorities import AFTER_DEM_PRIORITY, dem_priority, intruder_model_priority  # noqa: F401
 
 
 def user_error(message: str) -> None:

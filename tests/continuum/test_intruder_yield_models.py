@@ -98,6 +98,19 @@ def test_critical_state_refuses_a_push_above_its_limit_load() -> None:
     assert 1.096 < loads["limit_force_10V"] < 20.0
 
 
+def test_a_solve_told_not_to_compute_the_limit_load_reports_the_failure_as_it_is() -> None:
+    """``limit_load=False`` (the parameter draws): the same push above the limit load fails as the
+    Newton failure it is, a ConvergenceError and not OutOfRangeError, with no limit load computed
+    (its two driven solves are what the switch saves)."""
+    from continuum.errors import ConvergenceError
+    solver = CriticalStateRodSolver(GEO, CS, LX, RodIntruder.below_top(GEO, 3 * D, 6.5 * D, 20.0),
+                                    GridOptions(cells_per_d=2), regularisations=(1e-1, 1e-2))
+    with pytest.raises(ConvergenceError) as failure:
+        solver.solve(limit_load=False)
+    assert not isinstance(failure.value, OutOfRangeError)
+    assert solver.last_limit_load == {}
+
+
 def test_regrid_carries_a_linear_state_exactly() -> None:
     """Bilinear interpolation, periodic in x, with the walls' values as rows: a field linear in z
     (the planar shear u = V z / H, w = 0, a hydrostatic pi; Cosserat's corner spin, here linear in

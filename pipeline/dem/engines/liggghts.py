@@ -18,11 +18,23 @@ from pipeline.dem.liggghts_log import DEMRunError, check_run
 
 @dataclass
 class Launcher:
-    """How LIGGGHTS is started: ``[mpi_launcher -n ranks] liggghts``."""
+    """How LIGGGHTS is started: ``mpi_launcher -n ranks liggghts``, and one rank as the bare binary.
+
+    One rank is started without a launcher, as an MPI singleton (:func:`_mpi_environment`): the
+    same single process and the same numbers (the SLURM test compares them byte for byte), without
+    mpirun's daemon or the interconnect probing a lone process has no use for. That start took
+    0.45-0.55 s of each engine launch, through ``mpirun -n 1`` or bare with Open MPI's defaults,
+    and 0.05-0.10 s as an isolated singleton on shared memory (docs/dem_cost.md 30): a run
+    restarts the engine at every chunk (about 1800 launches in the default)."""
 
     liggghts: str
     mpi_launcher: str = ""
     ranks: int = 1
+
+    @property
+    def singleton(self) -> bool:
+        """Whether the run is one rank started as the bare binary."""
+        return self.ranks == 1
 
     def command(self, input_name: str, log_name: str) -> list[str]:
         binary = shutil.which(self.liggghts)
@@ -31,15 +43,27 @@ class Launcher:
         # Screen output is kept (sent to a file by the caller): LIGGGHTS 3.8 crashes in some
         # fixes (wall/gran primitive) when started with '-screen none'.
         cmd = [binary, "-in", input_name, "-log", log_name]
-        if self.mpi_launcher and self.mpi_launcher != "none":
-            launcher = shlex.split(self.mpi_launcher)
-            if shutil.which(launcher[0]) is None:
-                raise DEMRunError(f"MPI launcher {launcher[0]!r} not found on PATH")
-            cmd = [*launcher, "-n", str(self.ranks), *cmd]
-        return cmd
+        if self.singleton:
+            return cmd
+        if not self.mpi_launcher or self.mpi_launcher == "none":
+            raise DEMRunError(f"dem.mpi_ranks is {self.ranks} but dem.mpi_launcher is empty: without a launcher "
+                              "(mpirun, srun) LIGGGHTS would run one rank")
+        launcher = shlex.split(self.mpi_launcher)
+        if shutil.which(launcher[0]) is None:
+            raise DEMRunError(f"MPI launcher {launcher[0]!r} not found on PATH")
+        return [*launcher, "-n", str(self.ranks), *cmd]
 
 
-def _mpi_environment() -> dict[str, str]:
+#: Open MPI settings of a one-rank run (a singleton): no ``orted`` daemon forked to serve it, and
+#: the point-to-point layer that needs no network (``ob1`` over ``self`` and shared memory), so the
+#: start does not probe Omni-Path's ``psm2``, whose library sleeps in a loop while it looks for
+#: adapters. Set as defaults only: a user's own environment wins.
+SINGLETON_MCA = {"OMPI_MCA_ess_singleton_isolated": "1", "OMPI_MCA_pml": "ob1", "OMPI_MCA_btl": "self,vader"}
+
+
+def _mpi_environment(singleton: bool = False) -> dict[str, str]:
+    """The environment a LIGGGHTS launch runs in; ``singleton``: a one-rank run started bare
+    (:data:`SINGLETON_MCA`)."""
     env = dict(os.environ)
     # Open MPI refuses to start as root unless told; CI and containers run as root.
     env.setdefault("OMPI_ALLOW_RUN_AS_ROOT", "1")
@@ -50,6 +74,9 @@ def _mpi_environment() -> dict[str, str]:
     # sharing it while the other core idled (measured: 48 % idle, both at 50 %). Unbound, the
     # kernel spreads them. (Under SLURM, srun places the ranks and this is not read.)
     env.setdefault("OMPI_MCA_hwloc_base_binding_policy", "none")
+    if singleton:
+        for key, value in SINGLETON_MCA.items():
+            env.setdefault(key, value)
     return env
 
 
@@ -65,7 +92,7 @@ def run_liggghts(launcher: Launcher, run_dir: Path, stage: str, label: str) -> f
             cwd=run_dir,
             stdout=out,
             stderr=subprocess.STDOUT,
-            env=_mpi_environment(),
+            env=_mpi_environment(launcher.singleton),
             check=False,
         )
     seconds = time.perf_counter() - start

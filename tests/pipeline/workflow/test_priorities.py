@@ -63,3 +63,15 @@ def test_the_rods_run_before_the_held_out_planar_replicas(config: dict) -> None:
     rods = min(v for (c, j), v in ranks.items() if c == "intruder")
     planar = max(v for (c, j), v in ranks.items() if c in ("shear_gravity_fast", "shear_gravity_heavy"))
     assert rods > planar
+
+
+def test_every_intruder_model_is_ordered_and_all_start_before_the_other_rules_after_the_dem() -> None:
+    """The intruder's 2D models' jobs start slowest model first, above every other rule after the
+    DEM (:data:`INTRUDER_MODELS_SLOWEST_FIRST`), and the order names every intruder model the
+    workflow runs (one left out would start after all the others)."""
+    from pipeline.common import layout
+    from pipeline.workflow.priorities import INTRUDER_MODELS_SLOWEST_FIRST, intruder_model_priority
+    assert set(INTRUDER_MODELS_SLOWEST_FIRST) == set(layout.INTRUDER_MODELS)
+    priorities = [intruder_model_priority(m) for m in INTRUDER_MODELS_SLOWEST_FIRST]
+    assert priorities == sorted(set(priorities), reverse=True)
+    assert min(priorities) > AFTER_DEM_PRIORITY

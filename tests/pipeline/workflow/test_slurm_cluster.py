@@ -5,8 +5,8 @@ profiles/slurm.
 What it shows:
 - jobs reach SLURM: every rule's job is in slurmctld's log and ran as a SLURM job;
 - the DEM jobs ran as the local reduced run does (config/ci.yaml: one rank), one SLURM task each
-  with no MPI launcher (the plugin refuses an MPI job of one task; the bare binary gives the same
-  bytes as ``mpirun -n 1``), and run.json and LIGGGHTS's log ("1 by 1 by 1 MPI processor grid") say so;
+  with no MPI launcher (the plugin refuses an MPI job of one task; a one-rank run starts the bare
+  binary anyway, locally too), and run.json and LIGGGHTS's log ("1 by 1 by 1 MPI processor grid") say so;
 - the scores equal the local reduced run's (``reduced_results``, same config, seeds and domain
   split) to 1e-12 relative, and a DEM run's dumps are byte-identical: LIGGGHTS is deterministic
   for a given domain split;
@@ -82,7 +82,7 @@ def slurm_command(out: Path) -> list[str]:
         # --set-resources replaces the profile's whole set. One task, as the local run's one rank,
         # with no MPI launcher: the plugin (2.8) refuses an MPI job of one task ("'tasks' must be
         # greater than 1"), and an empty ``mpi`` makes the job a plain one, the rule's command then
-        # starting the bare binary (the same bytes as ``mpirun -n 1``, docs/scaling.md).
+        # starting the bare binary (as every one-rank run does, docs/scaling.md).
         "--set-resources", *[f"{rule}:{item}" for rule in ("dem", "dem_fill")
                              for item in ("mpi=''", f"tasks={RANKS}", "cpus_per_task=1", "mem_mb=1000", "runtime=30")],
         "dump_store:mem_mb=2000", "fields:mem_mb=2000", "calibrate:mem_mb=2000", "report:mem_mb=2000",
@@ -323,8 +323,8 @@ def test_dem_ran_on_the_ranks_the_local_run_used(slurm_run: dict) -> None:
 
 
 def test_scores_equal_the_local_run(slurm_run: dict, reduced_results: Path) -> None:
-    """Same config, seeds and domain split (one rank: locally by ``mpirun -n 1``, here the bare
-    binary in a one-task job): the DEM is bitwise the same, so every score is equal. (Across rank counts it would not
+    """Same config, seeds and domain split (one rank: the bare binary, locally and here in a
+    one-task job): the DEM is bitwise the same, so every score is equal. (Across rank counts it would not
     be: LIGGGHTS is deterministic for a given decomposition only, and a chaotic flow turns the
     different summation order into an independent realisation, whose scores differ by their whole
     realisation scatter, calibration included: 1 rank against 2 moved fluidity_micro_log_rmse by
