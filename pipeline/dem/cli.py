@@ -21,7 +21,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--run", required=True, help="run id (e.g. I0.02-r1, r2, D5-r1, D5-control-r1)")
     parser.add_argument("--out", help="run folder (default: <output_root>/dem/<case>/<run>)")
     parser.add_argument("--mpi-ranks", type=positive_int, help="override dem.mpi_ranks")
-    parser.add_argument("--mpi-launcher", help="override dem.mpi_launcher ('none' runs the binary directly)")
+    parser.add_argument("--mpi-launcher", help="override dem.mpi_launcher, the launcher of a run on several ranks (one rank always starts the binary directly)")
     parser.add_argument("--probe-yield", action="store_true",
                         help="intruder cases: measure the rod's yield force (staircase, wall at rest)")
     parser.add_argument("--fill-only", action="store_true",

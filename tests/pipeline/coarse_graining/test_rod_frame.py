@@ -15,7 +15,7 @@ def sheared_runs(root: Path) -> list[str]:
     return sorted(p.parent.name for p in (root / "dem" / "intruder").glob("*/run.json") if "control" not in p.parent.name)
 
 
-def test_x_average_is_the_runs_profile(reduced_results: Path) -> None:
+def test_x_average_is_the_runs_profile(reduced_dem: Path) -> None:
     """Shifting snapshots along the periodic x does not change x averages: the x mean of the
     rod-frame fields is the run's profile. The x grid's sum approximates the exact x integral of
     the profile's kernel (spacing below the kernel width): 2e-4 of the peak measured, 1e-2 allowed.
@@ -25,9 +25,9 @@ def test_x_average_is_the_runs_profile(reduced_results: Path) -> None:
     over that of the mass, not the x mean of the ratio (which differs by 2 % next to the rod,
     where the mass varies along x).
     """
-    for run in sheared_runs(reduced_results):
-        plane = xr.open_dataset(reduced_results / "fields_xz" / "intruder" / f"{run}.nc")
-        profile = open_fields(reduced_results / "fields" / "intruder" / f"{run}.nc")
+    for run in sheared_runs(reduced_dem):
+        plane = xr.open_dataset(reduced_dem / "fields_xz" / "intruder" / f"{run}.nc")
+        profile = open_fields(reduced_dem / "fields" / "intruder" / f"{run}.nc")
         np.testing.assert_allclose(plane.z.values, profile.z.values, rtol=0, atol=1e-12)
         momentum = (plane.rho * plane.u_x.fillna(0.0)).mean("x")
         linear = {name: (plane[name].mean("x"), profile[name]) for name in ("nu", "rho", "rho_body", "sigma_xz_contact")}
@@ -38,13 +38,13 @@ def test_x_average_is_the_runs_profile(reduced_results: Path) -> None:
             np.testing.assert_allclose(x_mean.values, expected.values, rtol=0, atol=1e-2 * scale, err_msg=f"{run}: {name}")
 
 
-def test_rod_sits_at_the_cell_centre_with_no_flowing_grains_inside(reduced_results: Path) -> None:
-    for run in sheared_runs(reduced_results):
-        plane = xr.open_dataset(reduced_results / "fields_xz" / "intruder" / f"{run}.nc")
-        rod = json.loads((reduced_results / "dem" / "intruder" / run / "run.json").read_text())["intruder"]
+def test_rod_sits_at_the_cell_centre_with_no_flowing_grains_inside(reduced_dem: Path) -> None:
+    for run in sheared_runs(reduced_dem):
+        plane = xr.open_dataset(reduced_dem / "fields_xz" / "intruder" / f"{run}.nc")
+        rod = json.loads((reduced_dem / "dem" / "intruder" / run / "run.json").read_text())["intruder"]
         centre = plane.rho_body.sel(x=plane.attrs["rod_centre_x"], z=rod["z"], method="nearest")
         # Had the shift missed the rod, its hole would be smeared over x and filled with grains.
         assert float(centre) < 0.05 * float(plane.rho_body.max()), run
-        grid = pv.read(reduced_results / "fields_xz" / "intruder" / f"{run}.vts")
+        grid = pv.read(reduced_dem / "fields_xz" / "intruder" / f"{run}.vts")
         assert grid.n_points == plane.sizes["x"] * plane.sizes["z"]
         np.testing.assert_allclose(np.sort(grid.point_data["nu"]), np.sort(plane.nu.values.ravel()))

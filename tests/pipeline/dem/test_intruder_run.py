@@ -233,15 +233,15 @@ def _run(root: Path, control: bool) -> dict[str, Any]:
 
 
 @pytest.fixture(scope="module")
-def sheared(reduced_results: Path) -> dict[str, Any]:
+def sheared(reduced_dem: Path) -> dict[str, Any]:
     """run.json record of the shallowest reduced intruder run (top wall moving)."""
-    return _run(reduced_results, control=False)
+    return _run(reduced_dem, control=False)
 
 
 @pytest.fixture(scope="module")
-def control(reduced_results: Path) -> dict[str, Any]:
+def control(reduced_dem: Path) -> dict[str, Any]:
     """run.json record of its control (top wall at rest, same packing and push)."""
-    return _run(reduced_results, control=True)
+    return _run(reduced_dem, control=True)
 
 
 @pytest.mark.liggghts

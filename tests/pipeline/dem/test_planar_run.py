@@ -58,9 +58,9 @@ def block_error(values: np.ndarray, n_blocks: int = 5) -> float:
     return float(means.std(ddof=1) / math.sqrt(n_blocks))
 
 
-def test_every_run_records_its_rules_and_window(reduced_results: Path) -> None:
-    bound = load_config(reduced_results / "config.effective.json")["material"]["max_overlap"]
-    for r in run_records(reduced_results):
+def test_every_run_records_its_rules_and_window(reduced_dem: Path) -> None:
+    bound = load_config(reduced_dem / "config.effective.json")["material"]["max_overlap"]
+    for r in run_records(reduced_dem):
         assert r["time_step"] <= r["stiffness_rule"]["contact_time"] / 20.0 * (1 + 1e-12)  # 0.05 is the bound
         assert r["max_overlap_over_d"] < bound
         t0, t1 = r["steady_state_window"]
@@ -82,16 +82,16 @@ def test_every_run_records_its_rules_and_window(reduced_results: Path) -> None:
         assert r["provenance"]["software"]["liggghts"].startswith("3.8")
 
 
-def test_grains_are_conserved_in_every_snapshot(reduced_results: Path) -> None:
-    for r in run_records(reduced_results):
+def test_grains_are_conserved_in_every_snapshot(reduced_dem: Path) -> None:
+    for r in run_records(reduced_dem):
         for dump in r["particle_dumps"]:
             lines = (r["_dir"] / dump).read_text().splitlines()
             counts = [int(lines[i + 1]) for i, line in enumerate(lines) if line == "ITEM: NUMBER OF ATOMS"]
             assert counts and set(counts) == {r["particle_count"]}, dump
 
 
-def test_overlap_column_is_the_geometric_overlap(reduced_results: Path) -> None:
-    r = run_records(reduced_results)[0]
+def test_overlap_column_is_the_geometric_overlap(reduced_dem: Path) -> None:
+    r = run_records(reduced_dem)[0]
     particles = (r["_dir"] / r["particle_dumps"][0]).read_text().splitlines()
     n = int(particles[3])
     header = particles[8].split()[2:]
@@ -111,13 +111,13 @@ def test_overlap_column_is_the_geometric_overlap(reduced_results: Path) -> None:
     assert np.all(c["delta"] > 0)
 
 
-def test_wall_forces_balance_load_and_weight(reduced_results: Path) -> None:
+def test_wall_forces_balance_load_and_weight(reduced_dem: Path) -> None:
     """Steady layer: top shear force = -bottom shear force; bottom normal force = load + weight.
 
     Planar runs only: an intruder rod held at its height and pushed along x is a third body whose
     constraint and push forces enter the balance (its own test is in test_intruder_run.py).
     """
-    for r in run_records(reduced_results):
+    for r in run_records(reduced_dem):
         if r["geometry"] != "planar_shear":
             continue
         s = production_series(r)
@@ -193,18 +193,18 @@ def assert_grains_kept_and_friction_agrees(rerun: dict, record: dict) -> None:
     assert abs(m1 - m2) < 4 * math.hypot(e1, e2) + 0.02, mu
 
 
-def test_two_mpi_ranks_conserve_grains_and_agree_with_one(reduced_results: Path, tmp_path: Path) -> None:
+def test_two_mpi_ranks_conserve_grains_and_agree_with_one(reduced_dem: Path, tmp_path: Path) -> None:
     """The reduced workflow's rheometer run (one rank, config/ci.yaml) against the same run on 2 MPI
     ranks started by mpirun: the domains split the periodic plane, every grain is kept, and the
     wall friction agrees within the noise."""
-    one = fastest_rheometer_run(reduced_results)
-    assert one["mpi_ranks"] == 1
+    one = fastest_rheometer_run(reduced_dem)
+    assert one["mpi_ranks"] == 1 and one["mpi_start"] == "bare binary (one rank)"
     assert "1 by 1 by 1 MPI processor grid" in (one["_dir"] / "logs" / f"{production_stages(one)[0]}.log").read_text()
     out = tmp_path / "mpi2"
-    proc = subprocess.run(rerun_command(one, reduced_results, out, "mpirun", 2), capture_output=True, text=True, check=False)
+    proc = subprocess.run(rerun_command(one, reduced_dem, out, "mpirun", 2), capture_output=True, text=True, check=False)
     assert proc.returncode == 0, proc.stderr[-3000:]
     two = json.loads((out / "run.json").read_text()) | {"_dir": out}
-    assert two["mpi_ranks"] == 2 and two["mpi_launcher"] == "mpirun"
+    assert two["mpi_ranks"] == 2 and two["mpi_launcher"] == "mpirun" and two["mpi_start"] == "mpirun -n 2"
     log = (out / "logs" / f"{production_stages(two)[0]}.log").read_text()
     assert "2 procs" in log
     # Domains split the periodic plane, not z (mostly empty space above the bed: one rank got every grain).

@@ -22,11 +22,11 @@ REPO = Path(__file__).resolve().parents[3]
 
 
 @pytest.mark.liggghts
-def test_the_states_of_a_replica_shear_from_one_settled_packing(reduced_results: Path) -> None:
-    fill_dir = reduced_results / "dem" / "rheometer" / "fill-r1"
+def test_the_states_of_a_replica_shear_from_one_settled_packing(reduced_dem: Path) -> None:
+    fill_dir = reduced_dem / "dem" / "rheometer" / "fill-r1"
     fill = json.loads((fill_dir / FILL_RECORD).read_text())
     assert fill["steps_by_stage"]["fill"] > 0 and fill["run"] == "fill-r1"
-    states = sorted(p.parent for p in (reduced_results / "dem" / "rheometer").glob("I*-r1/run.json"))
+    states = sorted(p.parent for p in (reduced_dem / "dem" / "rheometer").glob("I*-r1/run.json"))
     assert len(states) == 5
     restart = (fill_dir / "fill.restart").read_bytes()
     for state in states:
@@ -49,12 +49,12 @@ def test_the_states_of_a_replica_shear_from_one_settled_packing(reduced_results:
 
 
 @pytest.mark.liggghts
-def test_an_intruder_replica_s_rods_go_into_one_sheared_bed(reduced_results: Path) -> None:
+def test_an_intruder_replica_s_rods_go_into_one_sheared_bed(reduced_dem: Path) -> None:
     """config/ci.yaml sets cases.intruder.shared_bed (pipeline/dem/sheared_bed.py): one bed, sheared to
     steady state with the creep test, and every run of the replica (depths, pushes, control) restarts
     from its final state with its rod inserted; the bed's work is counted once."""
-    dem = reduced_results / "dem" / "intruder"
-    config = load_config(reduced_results / "config.effective.json")
+    dem = reduced_dem / "dem" / "intruder"
+    config = load_config(reduced_dem / "config.effective.json")
     fills = sorted(dem.glob("fill-*/fill.json"))
     assert [f.parent.name for f in fills] == ["fill-sheared-r1"]
     bed = json.loads(fills[0].read_text())
@@ -79,8 +79,8 @@ def test_an_intruder_replica_s_rods_go_into_one_sheared_bed(reduced_results: Pat
 
 
 @pytest.mark.liggghts
-def test_a_fast_state_shears_from_the_slower_state_s_final_packing(reduced_results: Path) -> None:
-    dem = reduced_results / "dem" / "rheometer"
+def test_a_fast_state_shears_from_the_slower_state_s_final_packing(reduced_dem: Path) -> None:
+    dem = reduced_dem / "dem" / "rheometer"
     fast, slow = (json.loads((dem / run / "run.json").read_text()) for run in ("I0.3-P50-r1", "I0.2-P200-r1"))
     slow_state = json.loads((dem / "I0.2-P200-r1" / "state.json").read_text())
     assert fast["started_from"] == {"run": "I0.2-P200-r1", "restart": slow_state["chunks"][-1]["restart"],

@@ -50,6 +50,7 @@ from pipeline.common.config import load_config
 from tests.pipeline.dem.test_planar_run import (assert_grains_kept_and_friction_agrees, fastest_rheometer_run,
                                                 production_stages, rerun_command)
 from tests.slurm_cluster import Cluster, local_cluster
+from tests.workflow_outputs import dem_outputs
 
 pytestmark = [pytest.mark.liggghts, pytest.mark.slurm]
 
@@ -181,22 +182,6 @@ def mpi_run_in_allocation(cluster: Cluster, local: Path, folder: Path) -> dict:
             "output": proc.stdout + proc.stderr + (log.read_text()[-3000:] if log.exists() else "")}
 
 
-def local_outputs(local: Path, runs: set[tuple[str, str]]) -> list[Path]:
-    """The benchmark files Snakemake writes when the jobs that make ``runs``' DEM folders, dump
-    stores and fields in the local root have ended: a shared fill's DEM job, a run's fields job,
-    and an intruder run's rod-frame fields job."""
-    geometry = {case: c["geometry"] for case, c in load_config(local / "config.effective.json")["cases"].items()}
-    paths = []
-    for case, run in sorted(runs):
-        if run.startswith("fill-"):
-            paths.append(local / "benchmarks" / "dem" / case / f"{run}.tsv")
-            continue
-        paths.append(local / "benchmarks" / "fields" / case / f"{run}.tsv")
-        if geometry[case] == "intruder":
-            paths.append(local / "benchmarks" / "fields_xz" / case / f"{run}.tsv")
-    return paths
-
-
 def wait_for_local_dem(local: Path, runs: set[tuple[str, str]], workflow: subprocess.Popen | None,
                        timeout: float = 3000.0) -> None:
     """Wait until the local reduced run has made every DEM folder, dump store and fields file of
@@ -204,7 +189,7 @@ def wait_for_local_dem(local: Path, runs: set[tuple[str, str]], workflow: subpro
     stop if it ended without them."""
     end = time.monotonic() + timeout
     while time.monotonic() < end:
-        missing = [p for p in local_outputs(local, runs) if not p.exists()]
+        missing = [p for p in dem_outputs(local, runs) or [local / "config.effective.json"] if not p.exists()]
         if not missing:
             return
         if _EARLY.get("stopping"):
@@ -315,7 +300,7 @@ def test_dem_ran_on_the_ranks_the_local_run_used(slurm_run: dict) -> None:
     for path in records:
         run = json.loads(path.read_text())
         # One task, no launcher: the job's command started the bare binary.
-        assert run["mpi_ranks"] == RANKS and run["mpi_launcher"] == "", path
+        assert run["mpi_ranks"] == RANKS and run["mpi_launcher"] == "" and run["mpi_start"] == "bare binary (one rank)", path
         stage = next(c["stage"] for c in json.loads((path.parent / "state.json").read_text())["chunks"] if c["kind"] == "production")
         log = (path.parent / "logs" / f"{stage}.log").read_text()
         grids = [math.prod(int(n) for n in g) for g in re.findall(r"(\d+) by (\d+) by (\d+) MPI processor grid", log)]
@@ -353,7 +338,7 @@ def test_an_mpi_dem_run_starts_its_ranks_by_srun(slurm_run: dict) -> None:
     mpi = slurm_run["mpi"]
     assert mpi and mpi["returncode"] == 0, mpi.get("output", "the workflow through SLURM failed first")
     run = json.loads((mpi["dir"] / "run.json").read_text()) | {"_dir": mpi["dir"]}
-    assert run["mpi_ranks"] == MPI_RANKS and run["mpi_launcher"] == "srun"
+    assert run["mpi_ranks"] == MPI_RANKS and run["mpi_launcher"] == "srun" and run["mpi_start"] == f"srun -n {MPI_RANKS}"
     for stage in production_stages(run):
         log = (mpi["dir"] / "logs" / f"{stage}.log").read_text()
         assert f"{MPI_RANKS} by 1 by 1 MPI processor grid" in log and f"{MPI_RANKS} procs" in log, stage
