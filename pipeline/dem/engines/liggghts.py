@@ -22,10 +22,10 @@ class Launcher:
 
     One rank is started without a launcher, as an MPI singleton (:func:`_mpi_environment`): the
     same single process and the same numbers (the SLURM test compares them byte for byte), without
-    mpirun's daemon or the interconnect probing a lone process has no use for. That start took
-    0.45-0.55 s of each engine launch, through ``mpirun -n 1`` or bare with Open MPI's defaults,
-    and 0.05-0.10 s as an isolated singleton on shared memory (docs/dem_cost.md 30): a run
-    restarts the engine at every chunk (about 1800 launches in the default)."""
+    mpirun's daemon or the interconnect probing a lone process has no use for. A start took a
+    median 0.42 s through ``mpirun -n 1`` and 0.37 s bare with Open MPI's defaults, against 0.065 s
+    as an isolated singleton on shared memory (``benchmarks/engine_start.py``, docs/dem_cost.md
+    30): a run restarts the engine at every chunk (about 1800 launches in the default)."""
 
     liggghts: str
     mpi_launcher: str = ""
