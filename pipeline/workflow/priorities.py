@@ -17,7 +17,8 @@ and the scores; the calibration set's and the intruder's runs also the intruder'
 stage, :data:`INTRUDER_MODEL_SECONDS`). The long replicas of the calibration case then start first, the chains of
 continued rheometer states and the beds that several rods wait for next, and the short rods last,
 where they fill the slots to the end. The non-DEM rules run as soon as they are ready
-(:data:`AFTER_DEM_PRIORITY`, above every DEM rank): each is short, and they are the tail.
+(:data:`AFTER_DEM_PRIORITY`, above every DEM rank): each is short, and they are the tail; among
+them the intruder models' jobs start first, slowest model first (:func:`intruder_model_priority`).
 
 The ranks are estimates for ordering only; nothing a run computes depends on them.
 """
@@ -46,7 +47,8 @@ TAIL_SECONDS = {"calibration": 200.0, "held_out": 100.0}
 #: (every intruder model needs its parameters) carry it in their tail, so they run before the
 #: held-out planar cases' short replicas, which then fill the slots beside the model stage.
 INTRUDER_MODEL_SECONDS = 1000.0
-#: Priority of every rule after the DEM (above any DEM rank): they are short and are the tail.
+#: Priority of every rule after the DEM (above any DEM rank): they are short and are the tail (the
+#: intruder models' jobs a few above it, :func:`intruder_model_priority`).
 AFTER_DEM_PRIORITY = 1_000_000
 #: The intruder's 2D models, slowest first: the order their jobs (nominal solves, grid study,
 #: sensitivities or draws) start in when several are ready. Each model's chain (nominal solves,

@@ -81,7 +81,8 @@ def convergence_stores(wildcards: Any, config: dict[str, Any]) -> list[str]:
 
 
 def mpi_launcher(config: dict[str, Any]) -> str:
-    """Launcher for the DEM rule's ``resources.mpi`` ('none': run the binary directly)."""
+    """Launcher for the DEM rule's ``resources.mpi`` ('none': run the binary directly; a one-rank run
+    starts the bare binary whatever is named, ``pipeline.dem.engines.liggghts.Launcher``)."""
     return config["dem"]["mpi_launcher"] or "none"
 
 
@@ -196,5 +197,6 @@ def intruder_run_jsons(wildcards: Any, config: dict[str, Any]) -> list[str]:
 
 def dem_job_priority(config: dict[str, Any], case: str, job: str) -> int:
     """Snakemake ``priority`` of a DEM run or shared fill: its upward rank (:mod:`pipeline.workflow.priorities`).
-    Every rule after the DEM has :data:`AFTER_DEM_PRIORITY`."""
+    Every rule after the DEM has :data:`AFTER_DEM_PRIORITY` or more (the intruder models' jobs:
+    :func:`pipeline.workflow.priorities.intruder_model_priority`)."""
     return dem_priority(config, case, job)

@@ -37,6 +37,10 @@ class Launcher:
         return self.ranks == 1
 
     def command(self, input_name: str, log_name: str) -> list[str]:
+        if not self.singleton and self.mpi_launcher.strip() in ("", "none"):
+            # (the config's validation refuses this first; a command line's --mpi-launcher may not)
+            raise DEMRunError(f"dem.mpi_ranks is {self.ranks} but dem.mpi_launcher is empty: without a launcher "
+                              "(mpirun, srun) LIGGGHTS would run one rank")
         binary = shutil.which(self.liggghts)
         if binary is None:
             raise DEMRunError(f"LIGGGHTS executable {self.liggghts!r} not found on PATH (install the Debian package 'liggghts')")
@@ -45,9 +49,6 @@ class Launcher:
         cmd = [binary, "-in", input_name, "-log", log_name]
         if self.singleton:
             return cmd
-        if not self.mpi_launcher or self.mpi_launcher == "none":
-            raise DEMRunError(f"dem.mpi_ranks is {self.ranks} but dem.mpi_launcher is empty: without a launcher "
-                              "(mpirun, srun) LIGGGHTS would run one rank")
         launcher = shlex.split(self.mpi_launcher)
         if shutil.which(launcher[0]) is None:
             raise DEMRunError(f"MPI launcher {launcher[0]!r} not found on PATH")

@@ -11,18 +11,23 @@ import os
 import shutil
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
+import yaml
 
+from pipeline.common.config import ConfigError, validate_config
 from pipeline.dem.engines.liggghts import Launcher
 from pipeline.dem.liggghts_log import DEMRunError
 from pipeline.dem.planar_run import _mpi_environment
 
+CI = Path(__file__).resolve().parents[3] / "config" / "ci.yaml"
+
 
 def test_a_one_rank_launch_is_not_pinned_to_one_core() -> None:
-    # The default config launches LIGGGHTS through mpirun: without it the DEM cannot run at all.
+    # Several ranks start through mpirun (dem.mpi_launcher): without it they cannot run at all.
     if shutil.which("mpirun") is None:
-        pytest.fail("mpirun is not installed: run scripts/install.sh (the default DEM launcher is mpirun)")
+        pytest.fail("mpirun is not installed: run scripts/install.sh (the launcher of runs on several ranks)")
     parent = sorted(os.sched_getaffinity(0))
     if len(parent) < 2:
         # Binding cannot pin a one-core process anywhere else: the property has no content here.
@@ -33,6 +38,7 @@ def test_a_one_rank_launch_is_not_pinned_to_one_core() -> None:
     assert out.stdout.strip() == str(parent), out.stdout
 
 
+@pytest.mark.liggghts
 def test_a_one_rank_run_is_the_bare_binary_and_keeps_every_core(tmp_path) -> None:
     """One rank starts LIGGGHTS itself, whatever launcher the config names (an Open MPI
     singleton, no mpirun daemon), and the running engine is not pinned: a child it starts
@@ -55,6 +61,11 @@ def test_a_one_rank_run_is_the_bare_binary_and_keeps_every_core(tmp_path) -> Non
 
 
 def test_several_ranks_without_a_launcher_are_refused() -> None:
-    """dem.mpi_ranks above 1 with no dem.mpi_launcher would run one rank: refused, naming both keys."""
+    """dem.mpi_ranks above 1 with no dem.mpi_launcher would run one rank: refused, naming both
+    keys, by the config's validation and by the launcher itself (a command line's override)."""
     with pytest.raises(DEMRunError, match="dem.mpi_ranks is 2 but dem.mpi_launcher is empty"):
         Launcher("liggghts", "", 2).command("in.x", "log.x")
+    config = yaml.safe_load(CI.read_text())
+    config["dem"].update(mpi_ranks=2, mpi_launcher="")
+    with pytest.raises(ConfigError, match=r"ci.yaml: dem.mpi_ranks is 2 but dem.mpi_launcher is empty"):
+        validate_config(config, str(CI))

@@ -46,7 +46,6 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from pipeline.common.config import load_config
 from tests.pipeline.dem.test_planar_run import (assert_grains_kept_and_friction_agrees, fastest_rheometer_run,
                                                 production_stages, rerun_command)
 from tests.slurm_cluster import Cluster, local_cluster
