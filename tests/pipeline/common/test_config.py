@@ -1,4 +1,4 @@
-"""Config validation names the bad key; seeds are deterministic."""
+"""Config validation names the bad key; seeds are deterministic (pipeline.common.config, pipeline.common.runs)."""
 from __future__ import annotations
 
 import copy
@@ -9,7 +9,6 @@ import yaml
 from pipeline.common.config import (
     ConfigError,
     case_production,
-    _is_prime,
     dem_runs,
     derived_seed,
     fill_owner_run,
@@ -23,6 +22,7 @@ from pipeline.common.config import (
     shared_fill_of,
     validate_config,
 )
+from pipeline.common.runs import _is_prime
 
 
 @pytest.fixture
