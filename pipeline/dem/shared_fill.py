@@ -1,6 +1,6 @@
 """A fill (pour, settle, walls and bodies made) poured once for several runs.
 
-Two kinds of runs start from the same settled packing (:func:`pipeline.common.config.shared_fill_ids`):
+Two kinds of runs start from the same settled packing (:func:`pipeline.common.runs.shared_fill_ids`):
 
 - the rheometer's states of one replica, with ``cases.rheometer.shared_fill``: they differ only in
   the wall speed and load of their shear stage, which the fill does not read;
@@ -16,7 +16,7 @@ config and bodies, the fill's own seed); each run that starts from it copies its
 their own fills, so the replica scatter stays the scatter of independent packings.
 
 ``fill.json`` (written last, under a temporary name) is the fill's record: the physics it was made
-with (:func:`pipeline.common.config.fill_physics`, checked by every run that adopts it), its
+with (:func:`pipeline.common.runs.fill_physics`, checked by every run that adopts it), its
 settled packing's numbers, its bodies (the intruder's rod), its steps and seconds (counted once in
 the DEM bill, not per run).
 

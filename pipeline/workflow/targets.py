@@ -96,7 +96,7 @@ def effective_config_file(config: dict[str, Any], dem_run: tuple[str, str] | Non
 
     The file is rewritten only when its content changes, so an unchanged config does not make
     Snakemake rerun anything. With ``dem_run = (case, run)`` it holds only what that DEM run
-    depends on (``config.dem.<case>.<run>.json``, :func:`pipeline.common.config.run_config`), so
+    depends on (``config.dem.<case>.<run>.json``, :func:`pipeline.common.runs.run_config`), so
     changing a model setting, another case or another rheometer state does not rerun it.
     Returns its path.
     """
@@ -115,7 +115,7 @@ def effective_config_file(config: dict[str, Any], dem_run: tuple[str, str] | Non
 
 def shared_fill_config_file(config: dict[str, Any], case: str, fill: str) -> str:
     """The per-run config a shared fill reads: its replica's first state's (the fill depends on
-    none of a state's own settings, :func:`pipeline.common.config.fill_physics`)."""
+    none of a state's own settings, :func:`pipeline.common.runs.fill_physics`)."""
     if case not in config["cases"]:
         user_error(f"target fill {case}/{fill}: the config has no case {case!r} (cases: {', '.join(config['cases'])})")
     try:
