@@ -22,7 +22,7 @@ from pipeline.common.config import (case_production, derived_seed, fill_physics,
 from pipeline.common.formats import RUN_FORMAT_VERSION
 from pipeline.common.provenance import provenance
 from pipeline.dem.contact_scaling import contact_design
-from pipeline.dem.engines import CONTACT_COLUMNS, DELTA_COLUMN, make_engine, mpi_start  # noqa: F401
+from pipeline.dem.engines import CONTACT_COLUMNS, DELTA_COLUMN, make_engine  # noqa: F401
 # Re-exported: other modules, tests and benchmarks reach the LIGGGHTS templates and launch from here.
 from pipeline.dem import liggghts_render as render  # noqa: F401
 from pipeline.dem import adopted_packing, force_balance
@@ -387,7 +387,7 @@ class PlanarShearRun(ChunkedRun):
             "wall_clock_seconds": self.state["wall_seconds"],
             "mpi_ranks": self.dem["mpi_ranks"],
             "mpi_launcher": self.dem["mpi_launcher"],
-            "mpi_start": mpi_start(self.dem),
+            "mpi_start": self.engine.start,
             "seed": self.seed,
             "steady_state_window": [self.state["steady"]["t_start"], production[-1]["t_end"]],
             "steady_state_test": self.state["steady"],

@@ -32,7 +32,6 @@ from pipeline.common.formats import RUN_FORMAT_VERSION
 from pipeline.common.provenance import provenance
 from pipeline.dem import liggghts_render as render
 from pipeline.dem.contact_law import tangential_damping
-from pipeline.dem.engines import mpi_start
 from pipeline.dem.intruder_run import IntruderRun
 from pipeline.dem.planar_run import PlanarShearRun
 from pipeline.dem.sheared_bed import ShearedBed
@@ -72,6 +71,6 @@ def run_shared_fill(config: dict[str, Any], case_name: str, fill: str, run_dir: 
         "wall_seconds_by_stage": {"fill": float(made["wall_seconds"])},
         "mpi_ranks": runner.dem["mpi_ranks"],
         "mpi_launcher": runner.dem["mpi_launcher"],
-        "mpi_start": mpi_start(runner.dem),
+        "mpi_start": runner.engine.start,
         "provenance": provenance(config),
     }

@@ -43,7 +43,6 @@ from pipeline.common.config import fill_physics, mean_grain_volume, shared_fill_
 from pipeline.common.formats import RUN_FORMAT_VERSION
 from pipeline.common.provenance import provenance
 from pipeline.dem import liggghts_render as render
-from pipeline.dem.engines import mpi_start
 from pipeline.dem.liggghts_log import DEMRunError, printed_value
 from pipeline.dem.planar_run import FILL_RECORD, PlanarShearRun, read_settled, run_liggghts
 
@@ -140,7 +139,7 @@ class ShearedBed(PlanarShearRun):
                                       "shear": float(sum(c["wall_seconds"] for c in chunks))},
             "mpi_ranks": self.dem["mpi_ranks"],
             "mpi_launcher": self.dem["mpi_launcher"],
-            "mpi_start": mpi_start(self.dem),
+            "mpi_start": self.engine.start,
             "provenance": provenance(self.intruder_config),
         }
 

@@ -36,6 +36,8 @@ class Engine(Protocol):
     name: str
     #: Solid fraction of the loose grains before the pour (sets the fill box's height).
     insertion_solid_fraction: float
+    #: How the engine's processes are started, for the run's record (``run.json``'s ``mpi_start``).
+    start: str
 
     def check_geometry(self, geometry: str, label: str) -> None:
         """Raise :class:`pipeline.dem.liggghts_log.DEMRunError` if the engine has no templates for ``geometry``."""
@@ -80,15 +82,3 @@ def make_engine(dem: dict[str, Any], material: dict[str, Any] | None = None) -> 
         from pipeline.dem.engines.lammps import LammpsEngine
         return LammpsEngine(dem["mpi_launcher"], dem["mpi_ranks"], damping)
     raise ValueError(f"dem.engine: {name!r} is not an engine (choose from {', '.join(ENGINE_NAMES)})")
-
-
-def mpi_start(dem: dict[str, Any]) -> str:
-    """How a run's engine was started, for its record: one rank is always the bare binary (an MPI
-    singleton, ``liggghts.Launcher``; LAMMPS's one rank too), several ranks the launcher's
-    ``-n``."""
-    ranks = int(dem["mpi_ranks"])
-    if ranks == 1:
-        return "bare binary (one rank)"
-    if engine_name(dem) == "lammps" and not str(dem.get("mpi_launcher", "")).startswith("srun"):
-        return f"mpiexec -n {ranks} (LAMMPS's MPICH)"
-    return f"{dem['mpi_launcher']} -n {ranks}"

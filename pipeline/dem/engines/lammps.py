@@ -135,6 +135,15 @@ class LammpsEngine:
                       "set type 4 type 1"]
         return "\n".join(lines) + "\n"
 
+    @property
+    def start(self) -> str:
+        """How :meth:`command` starts LAMMPS, for the run's record."""
+        if self.ranks == 1:
+            return "bare binary (one rank)"
+        if self.mpi_launcher.startswith("srun"):
+            return f"{self.mpi_launcher} -n {self.ranks}"
+        return f"mpiexec -n {self.ranks} (LAMMPS's MPICH)"
+
     def command(self, input_name: str, log_name: str) -> list[str]:
         cmd = [str(lmp_executable()), "-in", input_name, "-log", log_name]
         if self.ranks > 1:

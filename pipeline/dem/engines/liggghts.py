@@ -36,6 +36,11 @@ class Launcher:
         """Whether the run is one rank started as the bare binary."""
         return self.ranks == 1
 
+    @property
+    def start(self) -> str:
+        """How :meth:`command` starts the engine, for the run's record."""
+        return "bare binary (one rank)" if self.singleton else f"{self.mpi_launcher} -n {self.ranks}"
+
     def command(self, input_name: str, log_name: str) -> list[str]:
         if not self.singleton and self.mpi_launcher.strip() in ("", "none"):
             # (the config's validation refuses this first; a command line's --mpi-launcher may not)
@@ -112,6 +117,10 @@ class LiggghtsEngine:
         self.launcher = Launcher(liggghts, mpi_launcher, ranks)
         #: material.tangential_damping (pipeline/dem/contact_law.py): the templates' law when true.
         self.tangential_damping = tangential_damping
+
+    @property
+    def start(self) -> str:
+        return self.launcher.start
 
     def check_geometry(self, geometry: str, label: str) -> None:
         try:
