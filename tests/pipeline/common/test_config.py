@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import copy
+from pathlib import Path
 
 import pytest
 import yaml
@@ -30,9 +31,19 @@ def config() -> dict:
     return load_config("config/ci.yaml")
 
 
-def test_both_shipped_configs_are_valid() -> None:
-    for path in ("config/config.yaml", "config/ci.yaml"):
-        assert load_config(path)["cases"]
+SHIPPED_CONFIGS = sorted(str(p) for p in (*Path("config").glob("*.yaml"), *Path("config/studies").glob("*.yaml"))
+                         if p.name != "schema.yaml")
+
+
+@pytest.mark.parametrize("path", SHIPPED_CONFIGS)
+def test_every_shipped_config_is_valid(path: str) -> None:
+    # The studies are full configs run as they are (config/studies/*.yaml): one that no longer
+    # validates would be found only when its hours of DEM were due.
+    assert load_config(path)["cases"]
+
+
+def test_the_shipped_configs_include_the_default_the_ci_and_the_studies() -> None:
+    assert {"config/config.yaml", "config/ci.yaml", "config/studies/damping_off_liggghts_seed2.yaml"} <= set(SHIPPED_CONFIGS)
 
 
 @pytest.mark.parametrize(
