@@ -35,7 +35,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scipy import stats
+# scipy.special's chi-squared quantile (scipy.stats.chi2.ppf bit for bit) spares each DEM job the
+# import of scipy.stats (about 0.55 CPU s).
+from scipy import special
 
 from pipeline.dumps.reader import read_particles
 
@@ -81,7 +83,7 @@ def error_bound_factor(blocks: int, confidence: float = ERROR_BOUND_CONFIDENCE) 
     if blocks < 2:
         raise ValueError(f"an error needs 2 batches at the least, got {blocks}")
     dof = blocks - 1
-    return math.sqrt(dof / float(stats.chi2.ppf(1.0 - confidence, dof)))
+    return math.sqrt(dof / float(2.0 * special.gammaincinv(0.5 * dof, 1.0 - confidence)))  # chi2 quantile at 1 - confidence
 
 
 def chunk_means(dump_paths: list[Path], d: float, dt: float, wall_speed: float, bulk_margin: float) -> ChunkMeans:
