@@ -36,8 +36,18 @@ from pipeline.dem.engines.liggghts import _mpi_environment  # noqa: E402
 LOOP = re.compile(r"Loop time of (\S+) on (\d+) procs for (\d+) steps with (\d+) atoms")
 
 
+def last_production_stage(run_dir: Path) -> str:
+    """The run's last production chunk (``production_NNN``, the highest of its ``in.production_*``)."""
+    stages = sorted(p.name.removeprefix("in.") for p in run_dir.glob("in.production_*"))
+    if not stages:
+        raise SystemExit(f"{run_dir}: no production chunk (in.production_*) to replay")
+    return stages[-1]
+
+
 def measure(run_dir: Path, stage: str) -> dict[str, float]:
     record = json.loads((run_dir / "run.json").read_text())
+    if stage == "last":
+        stage = last_production_stage(run_dir)
     engine = make_engine(record["provenance"]["config"]["dem"] | {"mpi_ranks": 1, "mpi_launcher": "none"})
     with tempfile.TemporaryDirectory(prefix="engine_speed_") as tmp:
         work = Path(tmp) / "run"
@@ -93,7 +103,9 @@ def print_contention(run: Path, stage: str, repeats: int, copies: int) -> None:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("runs", nargs="+", type=Path)
-    parser.add_argument("--stage", default="production_000")
+    parser.add_argument("--stage", default="production_000",
+                        help="the chunk replayed: production_000 (default), any in.<stage> of the runs, or 'last' "
+                             "(each run's last production chunk: continued rheometer states number theirs on)")
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--concurrent", type=int, metavar="K",
                         help="instead: each run's chunk replayed alone and K copies at once, alternated (the slowdown "
@@ -107,6 +119,7 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     print(f"{'run':<40} {'engine':<9} {'M p-steps':>9} {'M p-steps / core-s':>22} {'M p-steps / wall-s':>20} "
           f"{'(loop)':>8}")
+    by_case: dict[str, list[float]] = {}
     for run in args.runs:
         rows = [measure(run, args.stage) for _ in range(args.repeats)]
         core = [r["per_core_second"] / 1e6 for r in rows]
@@ -116,6 +129,10 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{str(run):<40} {rows[0]['engine']:<9} {rows[0]['particle_steps'] / 1e6:>9.3f} "
               f"{statistics.mean(core):>12.2f} +- {spread:<6.2f} {statistics.mean(wall):>20.2f} {statistics.mean(loop):>8.2f}"
               f"   (each of {len(rows)}: {', '.join(f'{c:.2f}' for c in core)})")
+        by_case.setdefault(json.loads((run / "run.json").read_text())["case"], []).extend(core)
+    # The rates per case, as benchmarks/workflow_cost.py --timeline takes them (each case's DEM
+    # against the engine alone on its own bed).
+    print("--bare " + " ".join(f"{case}={statistics.mean(v):.3f}" for case, v in sorted(by_case.items())))
     return 0
 
 
