@@ -21,7 +21,7 @@ import pandas as pd
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from pipeline.scoring.claims_across_roots import claims_across  # noqa: E402
-from pipeline.scoring.claims_cost import TOLD_APART, claims  # noqa: E402
+from pipeline.scoring.claims import TOLD_APART, claims  # noqa: E402
 
 
 def read_root(root: Path) -> tuple[pd.DataFrame, pd.DataFrame, dict]:

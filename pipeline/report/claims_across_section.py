@@ -10,7 +10,7 @@ import pandas as pd
 
 from pipeline.report.html import table_html
 from pipeline.scoring.claims_across_roots import summary
-from pipeline.scoring.claims_cost import TOLD_APART
+from pipeline.scoring.claims import TOLD_APART
 
 #: How each status reads in the report's line.
 SAYS = {"confirmed": "holds in both", "lost": "lost there (cannot tell apart)", "contradicted": "contradicted there",

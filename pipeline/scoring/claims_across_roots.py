@@ -8,9 +8,9 @@ the default; or the seed) says of the same pair: the same (``confirmed``), canno
 that is contradicted, or lost, under a second contact law is a claim about the contact law as much
 as about the rheologies.
 
-The comparison is :func:`pipeline.scoring.claims_cost.compare_claims` (the same statuses as the
+The comparison is :func:`pipeline.scoring.claims.compare_claims` (the same statuses as the
 verdict against less DEM), with this root as the reference. Pairs an infinite score left out of
-``model_differences.csv`` are judged from ``verdict.csv`` as there (:func:`claims_cost.claims`).
+``model_differences.csv`` are judged from ``verdict.csv`` as there (:func:`pipeline.scoring.claims.claims`).
 
 Usage: ``python -m pipeline.scoring claims-across --root ROOT --other LABEL=ROOT2 [...] --out CSV``.
 """
@@ -22,7 +22,7 @@ from pathlib import Path
 import pandas as pd
 
 from pipeline.common import atomic
-from pipeline.scoring.claims_cost import TOLD_APART, claims, compare_claims
+from pipeline.scoring.claims import TOLD_APART, claims, compare_claims
 
 COLUMNS = ["other_label", "other_root", "case", "metric", "model_a", "model_b", "claim_here", "claim_other", "status",
            "holds_in_both"]

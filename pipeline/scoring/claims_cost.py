@@ -27,22 +27,9 @@ the workflow's own functions, with the root's config, seed and confidence):
 draws (``model_draws/``) stay those of the full root; only the DEM references change. (The
 calibration's own DEM, the rheometer and ``calibration.nonlocal_case``, is not cut, and not counted.)
 
-Claims (:func:`claims`): per held-out case, metric and pair of models, ``a_better``, ``b_better``
-or ``cannot_tell_apart`` as ``model_differences.csv`` states them; a pair where exactly one model's
-score is infinite (it predicts no creep where the DEM creeps: the verdict's ``worse``) counts as
-told apart, the finite one better. A variant's claim against the full root's (:func:`compare_claims`):
-**confirmed** (told apart the same way), **lost** (the full root told them apart, the variant cannot,
-or cannot score the pair: ``unscored`` counts these), **contradicted** (told apart the other way),
-**new** (told apart where the full root cannot); ``still_cannot_tell_apart`` the rest. Only
-(case, metric) pairs the full root's table holds are compared.
-
-DEM cost (:func:`run_cost`, :func:`variant_cost`): per case, the LIGGGHTS wall seconds of its
-scored runs times their MPI ranks (``run.json`` ``wall_seconds_by_stage``), the fill and the shear
-to steady state paid in full, the production scaled by the fraction of it kept (its snapshots kept
-over its snapshots), plus the shared fills and sheared beds the kept runs started from (``fill.json``,
-counted once), in core-hours. ``dem_core_hours_with_window``: the same where the production cannot
-be shorter than the steady-state test's window it begins with
-(``production_chunks_from_steady_window`` of ``production_chunks``): what such a run would cost today.
+Claims and their comparison: :mod:`pipeline.scoring.claims` (**confirmed**, **lost**,
+**contradicted**, **new**, ``still_cannot_tell_apart``). The variants, their prefixes and their DEM
+cost: :mod:`pipeline.scoring.dem_variants`.
 
 Outputs: ``--out`` (one row per case and variant, :data:`COLUMNS`), ``--pairs-out`` (default
 ``<out>_pairs.csv``: every compared pair with both claims and its status) and ``--figure`` (claims
@@ -54,14 +41,11 @@ Usage: ``python -m pipeline.scoring claims-cost --root ROOT --out ROOT/validatio
 from __future__ import annotations
 
 import argparse
-import itertools
 import json
 import math
 import os
-import re
 import time
 from dataclasses import dataclass, field
-from fractions import Fraction
 from pathlib import Path
 from typing import Any, Iterable
 
@@ -73,18 +57,15 @@ from pipeline.common import atomic, layout
 from pipeline.common.cli import positive_int
 from pipeline.common.config import dem_runs, size_study_cell
 from pipeline.scoring import verdict
+from pipeline.scoring.claims import Key, claims, compare_claims, count_claims
+from pipeline.scoring.dem_variants import (FRACTIONS, Prefix, RunCost, Variant, prefix_of, prefix_record, prefix_rod,
+                                           replica_of, rod_series, run_cost, shared_cost, store_timesteps, variant_cost,
+                                           variants)
 from pipeline.scoring.metrics import MetricError
 from pipeline.scoring.replicas import top_plane
 
-#: Fractions of the production kept by default (issue 57).
-FRACTIONS = (0.125, 0.25, 0.5)
-#: Fewest snapshots a prefix keeps (an average and a block error need two).
-MIN_SNAPSHOTS = 2
 #: What the variants keep fixed, in every row's notes.
 MODELS_FIXED = "models fixed at the full calibration"
-#: A variant's claim against the full root's.
-STATUSES = ("confirmed", "lost", "contradicted", "new", "still_cannot_tell_apart")
-TOLD_APART = ("a_better", "b_better")
 COLUMNS = ["case", "variant", "fraction", "replicas", "dem_core_hours", "confirmed", "lost", "contradicted", "new",
            "claims_full", "still_cannot_tell_apart", "unscored", "pairs", "dem_core_hours_full",
            "dem_core_hours_with_window", "particle_steps", "runs", "notes"]
@@ -93,282 +74,6 @@ PAIR_COLUMNS = ["case", "variant", "metric", "model_a", "model_b", "claim_full",
 Z_ATTRS = ("z_bottom_wall", "z_top_wall", "z_bottom_contact_plane", "z_top_contact_plane")
 #: Attributes a variant's fields file carries, so that a later call can reuse it.
 FRACTION_ATTR = "claims_cost_fraction"
-
-Key = tuple[str, str, str, str]  # case, metric, model_a, model_b (model_a < model_b)
-
-
-# ----------------------------------------------------------------------------------- claims
-def _flip(claim: str) -> str:
-    return {"a_better": "b_better", "b_better": "a_better"}.get(claim, claim)
-
-
-def _put(out: dict[Key, str], case: str, metric: str, a: str, b: str, claim: str) -> None:
-    if a > b:
-        a, b, claim = b, a, _flip(claim)
-    out[(case, metric, a, b)] = claim
-
-
-def claims(differences: pd.DataFrame, verdicts: pd.DataFrame | None = None) -> dict[Key, str]:
-    """(case, metric, model_a, model_b) -> claim, model_a before model_b alphabetically (the pair's
-    claim turned with it). With ``verdicts`` (``verdict.csv``'s rows), also the pairs
-    ``model_differences.csv`` leaves out because a score is infinite: one infinite score, the finite
-    model better; both infinite, ``cannot_tell_apart``."""
-    out: dict[Key, str] = {}
-    for r in differences.itertuples(index=False):
-        _put(out, r.case, r.metric, r.model_a, r.model_b, r.claim)
-    if verdicts is not None and not verdicts.empty:
-        values = pd.to_numeric(verdicts["value"], errors="coerce")
-        scored = verdicts[values.notna() & (verdicts["verdict"] != "no_prediction")].assign(score=values)
-        for (case, metric), frame in scored.groupby(["case", "metric"], sort=True):
-            rows = dict(zip(frame["model"], frame["score"].astype(float)))
-            for a, b in itertools.combinations(sorted(rows), 2):
-                ia, ib = math.isinf(rows[a]), math.isinf(rows[b])
-                if not (ia or ib) or (case, metric, a, b) in out:
-                    continue
-                _put(out, case, metric, a, b, "cannot_tell_apart" if ia and ib else ("b_better" if ia else "a_better"))
-    return out
-
-
-def compare_claims(full: dict[Key, str], variant: dict[Key, str]) -> dict[Key, tuple[str, str | None, bool]]:
-    """Key -> (status, the variant's claim or None, unscored) for every pair of a (case, metric) the
-    full root judged (module docstring). A pair the full root did not score is taken as
-    ``cannot_tell_apart`` there; one the variant does not score as not told apart."""
-    judged = {(k[0], k[1]) for k in full}
-    out = {}
-    for key in sorted(set(full) | {k for k in variant if (k[0], k[1]) in judged}):
-        f = full.get(key, "cannot_tell_apart")
-        v = variant.get(key)
-        if f in TOLD_APART:
-            status = "confirmed" if v == f else ("contradicted" if v in TOLD_APART else "lost")
-        else:
-            status = "new" if v in TOLD_APART else "still_cannot_tell_apart"
-        out[key] = (status, v, v is None)
-    return out
-
-
-def count_claims(full: dict[Key, str], variant: dict[Key, str], case: str) -> dict[str, int]:
-    """The counts of one case: each status, ``unscored``, ``pairs`` and ``claims_full`` (the pairs the
-    full root tells apart)."""
-    full_case = {k: v for k, v in full.items() if k[0] == case}
-    compared = compare_claims(full_case, {k: v for k, v in variant.items() if k[0] == case})
-    counts = {s: 0 for s in STATUSES}
-    for status, _, _ in compared.values():
-        counts[status] += 1
-    counts["unscored"] = sum(1 for status, _, missing in compared.values() if missing and status == "lost")
-    counts["pairs"] = len(compared)
-    counts["claims_full"] = sum(1 for v in full_case.values() if v in TOLD_APART)
-    return counts
-
-
-# -------------------------------------------------------------------------------- snapshots
-def prefix_count(n: int, fraction: float, minimum: int = MIN_SNAPSHOTS) -> int:
-    """How many of a production's ``n`` snapshots its first ``fraction`` keeps: ``ceil(fraction n)``
-    (at least the fraction), never fewer than ``minimum`` nor more than ``n``."""
-    if not 0.0 < fraction <= 1.0:
-        raise ValueError(f"fraction {fraction}: expected 0 < fraction <= 1")
-    if n < minimum:
-        raise ValueError(f"{n} snapshots: a prefix needs at least {minimum}")
-    return int(min(n, max(minimum, math.ceil(fraction * n - 1e-9))))
-
-
-def production_indices(timesteps: np.ndarray, run: dict[str, Any]) -> np.ndarray:
-    """Indices of the snapshots inside the run's steady-state window, the fields' window (the rule
-    of :func:`pipeline.coarse_graining.fields.steady_snapshots`, half a time step of slack)."""
-    t0, t1 = run["steady_state_window"]
-    dt = float(run["time_step"])
-    times = np.asarray(timesteps, dtype=float) * dt
-    return np.nonzero((times >= t0 - 0.5 * dt) & (times <= t1 + 0.5 * dt))[0]
-
-
-@dataclass(frozen=True)
-class Prefix:
-    """A prefix of one run's production: its window (s), the snapshots kept and the production's."""
-
-    window: tuple[float, float]
-    kept: int
-    total: int
-
-    @property
-    def kept_fraction(self) -> float:
-        return self.kept / self.total
-
-
-def prefix_of(timesteps: np.ndarray, run: dict[str, Any], fraction: float) -> Prefix:
-    """The window of the first ``fraction`` of a run's production snapshots (:func:`prefix_count`):
-    from the window's start to the last kept snapshot's time."""
-    chosen = production_indices(timesteps, run)
-    if chosen.size < MIN_SNAPSHOTS:
-        raise ValueError(f"{run.get('case')}/{run.get('run')}: {chosen.size} snapshots in the steady window")
-    keep = prefix_count(int(chosen.size), fraction)
-    t0, t1 = (float(t) for t in run["steady_state_window"])
-    # Every snapshot kept: the run's own window (its wall series run past the last snapshot).
-    t_end = t1 if keep == chosen.size else float(timesteps[chosen[keep - 1]]) * float(run["time_step"])
-    return Prefix((t0, t_end), keep, int(chosen.size))
-
-
-def prefix_record(run: dict[str, Any], prefix: Prefix, fraction: float) -> dict[str, Any]:
-    """``run.json`` of a run cut to ``prefix``: its steady-state and production windows end at the
-    last kept snapshot (the fields and the wall's series are read over it), ``claims_cost`` says so."""
-    out = json.loads(json.dumps(run))
-    out["steady_state_window"] = [prefix.window[0], prefix.window[1]]
-    production = run.get("production_window", run["steady_state_window"])
-    out["production_window"] = [float(production[0]), prefix.window[1] if prefix.kept < prefix.total else float(production[1])]
-    out["claims_cost"] = {"fraction": fraction, "snapshots_kept": prefix.kept, "snapshots_production": prefix.total,
-                          "window_full": run["steady_state_window"], "note": "prefix of the production: "
-                          "pipeline.scoring.claims_cost, not a DEM run of its own"}
-    return out
-
-
-def store_timesteps(run_dir: Path, run: dict[str, Any]) -> np.ndarray:
-    """The particle snapshots' time steps, from ``dumps.nc`` alone where it exists."""
-    from pipeline.dumps.store import STORE_NAME
-
-    store = Path(run_dir) / STORE_NAME
-    if store.is_file():
-        import netCDF4
-
-        with netCDF4.Dataset(store, "r") as ds:
-            return np.asarray(ds["particle_timestep"][:], dtype=np.int64)
-    from pipeline.coarse_graining.fields import load_tables
-
-    return load_tables(Path(run_dir), run)[0].timesteps
-
-
-# ------------------------------------------------------------------------------------- cost
-@dataclass(frozen=True)
-class RunCost:
-    """What one DEM run cost (core-seconds: LIGGGHTS wall seconds x MPI ranks; particle-steps)."""
-
-    case: str
-    run: str
-    replica: int
-    fixed_core_seconds: float  # fill and shear to steady state: paid whatever the production
-    production_core_seconds: float
-    fixed_particle_steps: float
-    production_particle_steps: float
-    window_share: float  # of the production, the steady-state test's window it begins with
-    shared: str | None = None  # the shared fill or sheared bed it started from (dem/<case>/<shared>/fill.json)
-
-
-def replica_of(run: str) -> int:
-    """The replica index k of a run id ending in ``r<k>``."""
-    match = re.search(r"(?:^|-)r(\d+)$", run)
-    if not match:
-        raise ValueError(f"run {run!r}: no replica suffix r<k>")
-    return int(match.group(1))
-
-
-def run_cost(record: dict[str, Any]) -> RunCost:
-    """A run's cost from its ``run.json`` (``wall_seconds_by_stage``, ``steps_by_stage``, ``mpi_ranks``)."""
-    ranks = float(record.get("mpi_ranks", 1))
-    seconds = record.get("wall_seconds_by_stage") or {}
-    steps = record.get("steps_by_stage") or {}
-    n = float(record["particle_count"])
-    chunks = int(record.get("production_chunks", 0) or 0)
-    window = int(record.get("production_chunks_from_steady_window", 0) or 0)
-    shared = (record.get("shared_fill") or {}).get("run")
-    return RunCost(str(record["case"]), str(record["run"]), replica_of(str(record["run"])),
-                   ranks * sum(float(v) for k, v in seconds.items() if k != "production"),
-                   ranks * float(seconds.get("production", 0.0)),
-                   n * sum(float(v) for k, v in steps.items() if k != "production"),
-                   n * float(steps.get("production", 0)),
-                   window / chunks if chunks else 0.0, shared)
-
-
-def shared_cost(fill: dict[str, Any]) -> tuple[float, float]:
-    """(core-seconds, particle-steps) of a shared fill or sheared bed (its ``fill.json``)."""
-    ranks = float(fill.get("mpi_ranks", 1))
-    seconds = sum(float(v) for v in (fill.get("wall_seconds_by_stage") or {}).values())
-    steps = sum(float(v) for v in (fill.get("steps_by_stage") or {}).values())
-    return ranks * seconds, float(fill.get("particle_count", 0)) * steps
-
-
-@dataclass(frozen=True)
-class Cost:
-    core_hours: float
-    core_hours_with_window: float
-    particle_steps: float
-
-
-def variant_cost(costs: Iterable[RunCost], kept: dict[str, float], shared: dict[str, tuple[float, float]]) -> Cost:
-    """The DEM of the runs in ``kept`` (run -> fraction of its production kept): fill and shear in
-    full, the production scaled; each shared fill or bed the kept runs started from once (``shared``:
-    name -> (core-seconds, particle-steps), from :func:`shared_cost`)."""
-    seconds = seconds_window = steps = 0.0
-    fills = set()
-    for c in costs:
-        if c.run not in kept:
-            continue
-        f = float(kept[c.run])
-        seconds += c.fixed_core_seconds + f * c.production_core_seconds
-        seconds_window += c.fixed_core_seconds + max(f, c.window_share) * c.production_core_seconds
-        steps += c.fixed_particle_steps + f * c.production_particle_steps
-        if c.shared:
-            fills.add(c.shared)
-    for name in fills:
-        s, p = shared.get(name, (0.0, 0.0))
-        seconds += s
-        seconds_window += s
-        steps += p
-    return Cost(seconds / 3600.0, seconds_window / 3600.0, steps)
-
-
-# ----------------------------------------------------------------------------------- variants
-@dataclass(frozen=True)
-class Variant:
-    """Less DEM: the first ``fraction`` of every production, and the replicas ``replicas`` (None: all)."""
-
-    fraction: float = 1.0
-    replicas: tuple[int, ...] | None = None
-
-    @property
-    def name(self) -> str:
-        parts = []
-        if self.fraction < 1.0:
-            parts.append(f"prefix {fraction_label(self.fraction)}")
-        if self.replicas is not None:
-            parts.append("replicas " + "+".join(f"r{k}" for k in self.replicas))
-        return ", ".join(parts) or "full"
-
-    @property
-    def tag(self) -> str:
-        return f"f{self.fraction:g}"
-
-    def kept(self, replicas: list[int]) -> list[int] | None:
-        """The case's replicas this variant keeps (None where it is no variant of the case: it keeps
-        them all at the whole production, or none)."""
-        keep = [k for k in replicas if self.replicas is None or k in self.replicas]
-        if not keep:
-            return None
-        if self.replicas is not None and len(keep) == len(replicas) and self.fraction >= 1.0:
-            return None
-        return keep
-
-
-def fraction_label(fraction: float) -> str:
-    f = Fraction(fraction).limit_denominator(64)
-    return f"{f.numerator}/{f.denominator}" if f.denominator > 1 else f"{f.numerator}"
-
-
-def replica_subsets(n: int, min_replicas: int = 1) -> list[tuple[int, ...]]:
-    """Replica subsets of a case of ``n``: each one left out in turn, then the first m for m from
-    n - 2 down to ``min_replicas``."""
-    if n < 2:
-        return []
-    every = list(range(1, n + 1))
-    subsets = [tuple(k for k in every if k != out) for out in every] if n - 1 >= min_replicas else []
-    subsets += [tuple(range(1, m + 1)) for m in range(n - 2, max(min_replicas, 1) - 1, -1)]
-    return subsets
-
-
-def variants(fractions: Iterable[float], max_replicas: int, min_replicas: int = 1, combine: bool = False) -> list[Variant]:
-    """``full``, the prefixes, the replica subsets and with ``combine`` every prefix of every subset."""
-    fractions = [float(f) for f in fractions if float(f) < 1.0]
-    subsets = replica_subsets(max_replicas, min_replicas)
-    out = [Variant()] + [Variant(f) for f in sorted(fractions)] + [Variant(1.0, s) for s in subsets]
-    if combine:
-        out += [Variant(f, s) for f in sorted(fractions) for s in subsets]
-    return out
 
 
 # ------------------------------------------------------------------------------ the root read
@@ -508,63 +213,6 @@ def first_on_model_grid(files: list[Path], reference: Path, scratch: Path) -> li
     out = scratch / f"{files[0].stem}.on_{reference.stem}.nc"
     write_netcdf(moved, out)
     return [out] + files[1:]
-
-
-# --------------------------------------------------------------------------------- the rods
-def rod_series(run_dir: Path) -> pd.DataFrame:
-    """A rod's position series over every committed chunk (``series/intruder_<stage>.txt``), x unwrapped."""
-    from pipeline.dem.intruder_run import read_intruder_series, unwrap
-
-    # As IntruderRun.intruder_series reads it (chunks in their order, no sample dropped), so the
-    # whole production gives run.json's speed again.
-    state = json.loads((run_dir / "state.json").read_text())
-    record = json.loads((run_dir / "run.json").read_text())
-    paths = [run_dir / "series" / f"intruder_{c['stage']}.txt" for c in state["chunks"]]
-    frames = [read_intruder_series(path) for path in paths if path.exists()]
-    data = pd.concat(frames, ignore_index=True)
-    data["x"] = unwrap(data["x"].to_numpy(), float(record["cell"][0]))
-    return data
-
-
-def prefix_rod(record: dict[str, Any], series: pd.DataFrame, fraction: float, rest_speed: float) -> tuple[dict[str, Any], str]:
-    """The run's record with the rod's ``speed``, ``speed_err`` and ``arrested`` over the first
-    ``fraction`` of its production window, and a note: where the prefix holds fewer than 3 samples
-    per block of the usual :data:`~pipeline.dem.rod_speed.SPEED_BLOCKS`, fewer blocks (at least 2);
-    with fewer than 6 samples the record unchanged and a note ending "left out" (the caller drops
-    the run)."""
-    from pipeline.dem.rod_speed import SPEED_BLOCKS, creep_speed
-
-    t0, t1 = record["production_window"]
-    t_end = t0 + fraction * (t1 - t0)
-    part = series[(series["time"] >= t0) & (series["time"] <= t_end)]
-    n = len(part)
-    blocks = min(SPEED_BLOCKS, n // 3)
-    out = json.loads(json.dumps(record))
-    if blocks < 2:
-        return out, f"{record['run']}: {n} rod samples in the prefix, too few: left out"
-    t, x = part["time"].to_numpy(), part["x"].to_numpy()
-    creep = creep_speed(t, x, blocks, rest_speed)
-    rod = out["intruder"]
-    if rod.get("speed_over_wall_speed") is not None and rod.get("speed"):
-        rod["speed_over_wall_speed"] = float(rod["speed_over_wall_speed"]) * creep.speed / float(rod["speed"])
-    rod.update({"speed": creep.speed, "speed_err": creep.speed_err, "arrested": bool(creep.arrested),
-                "displacement": creep.displacement, "window": [t0, t_end], "speed_blocks": blocks})
-    if "halves" in rod or "steadiness" in rod:
-        # As IntruderRun._record: the prefix's halves, the rod's travel over it and whether it is
-        # steady (issue 55: the depth sweep's score takes the steady rods only).
-        from pipeline.dem.rod_speed import production_halves
-        from pipeline.scoring.rod_steadiness import classify, split_durations
-
-        halves = production_halves(t, x, rest_speed)
-        if halves is not None:
-            halves["first_duration"], halves["second_duration"] = split_durations(t)
-        rod["halves"] = halves
-        steadiness = classify(out)
-        rod.update({k: steadiness[k] for k in ("travel_over_d", "travel_first_half_over_d", "travel_second_half_over_d",
-                                               "travel_source") if k in steadiness})
-        rod["steadiness"] = {k: steadiness.get(k) for k in ("steady", "rod_class", "reason", "halves_z_normal")}
-    note = f"{record['run']}: {blocks} blocks of {n} samples" if blocks < SPEED_BLOCKS else ""
-    return out, note
 
 
 # ---------------------------------------------------------------------------------- scoring

@@ -8,7 +8,9 @@ import pandas as pd
 import pytest
 import xarray as xr
 
+from pipeline.scoring import claims as cl
 from pipeline.scoring import claims_cost as cc
+from pipeline.scoring import dem_variants as dv
 from pipeline.scoring.verdict import DIFFERENCE_COLUMNS
 
 
@@ -30,7 +32,7 @@ FULL = differences([
 
 
 def test_claims_counted_right():
-    variant = cc.claims(differences([
+    variant = cl.claims(differences([
         ("fast", "velocity_rmse_rel", "local_mu_i", "ngf", "b_better"),      # confirmed
         ("fast", "velocity_rmse_rel", "cosserat", "ngf", "b_better"),        # contradicted
         ("fast", "velocity_rmse_rel", "cosserat", "local_mu_i", "cannot_tell_apart"),  # lost
@@ -39,23 +41,23 @@ def test_claims_counted_right():
         ("fast", "wall_slip_err", "local_mu_i", "ngf", "a_better"),          # a metric the full root has not: ignored
         ("heavy", "velocity_rmse_rel", "local_mu_i", "ngf", "a_better"),     # another case
     ]))
-    counts = cc.count_claims(cc.claims(FULL), variant, "fast")
+    counts = cl.count_claims(cl.claims(FULL), variant, "fast")
     assert counts == {"confirmed": 1, "lost": 1, "contradicted": 1, "new": 1, "still_cannot_tell_apart": 1,
                       "unscored": 0, "pairs": 5, "claims_full": 3}
-    heavy = cc.count_claims(cc.claims(FULL), variant, "heavy")
+    heavy = cl.count_claims(cl.claims(FULL), variant, "heavy")
     assert (heavy["confirmed"], heavy["claims_full"], heavy["pairs"]) == (1, 1, 1)
 
 
 def test_a_pair_the_variant_cannot_score_is_lost_and_unscored():
-    counts = cc.count_claims(cc.claims(FULL), {}, "fast")
+    counts = cl.count_claims(cl.claims(FULL), {}, "fast")
     assert (counts["lost"], counts["unscored"], counts["confirmed"], counts["still_cannot_tell_apart"]) == (3, 3, 0, 2)
 
 
 def test_pairs_are_turned_to_one_order():
     """A pair given b before a (as a variant's may be) is the same pair with its claim turned."""
-    turned = cc.claims(differences([("fast", "velocity_rmse_rel", "ngf", "local_mu_i", "a_better")]))
+    turned = cl.claims(differences([("fast", "velocity_rmse_rel", "ngf", "local_mu_i", "a_better")]))
     assert turned == {("fast", "velocity_rmse_rel", "local_mu_i", "ngf"): "b_better"}
-    status = cc.compare_claims(cc.claims(FULL), turned)[("fast", "velocity_rmse_rel", "local_mu_i", "ngf")]
+    status = cl.compare_claims(cl.claims(FULL), turned)[("fast", "velocity_rmse_rel", "local_mu_i", "ngf")]
     assert status == ("confirmed", "b_better", False)
 
 
@@ -71,7 +73,7 @@ def test_an_infinite_score_tells_a_pair_apart():
          "verdict": "no_prediction"},
     ])
     pairs = differences([("fast", "log_velocity_rmse", "cosserat", "ngf", "b_better")])
-    found = cc.claims(pairs, verdicts)
+    found = cl.claims(pairs, verdicts)
     assert found == {
         ("fast", "log_velocity_rmse", "cosserat", "ngf"): "b_better",
         ("fast", "log_velocity_rmse", "cosserat", "local_mu_i"): "a_better",
@@ -86,13 +88,13 @@ def test_an_infinite_score_tells_a_pair_apart():
                                                (39, 1 / 8, 5), (41, 1 / 2, 21), (10, 1 / 8, 2), (3, 1 / 8, 2),
                                                (2, 1 / 8, 2)])
 def test_prefix_count_keeps_the_first_fraction_never_fewer_than_two(n, fraction, kept):
-    assert cc.prefix_count(n, fraction) == kept
+    assert dv.prefix_count(n, fraction) == kept
 
 
 @pytest.mark.parametrize("n, fraction", [(1, 0.5), (40, 0.0), (40, 1.5)])
 def test_prefix_count_refuses(n, fraction):
     with pytest.raises(ValueError):
-        cc.prefix_count(n, fraction)
+        dv.prefix_count(n, fraction)
 
 
 def run_record(**extra) -> dict:
@@ -105,23 +107,23 @@ def test_prefix_of_takes_the_first_snapshots_of_the_steady_window():
     # Snapshots every 1000 steps (0.01 s) from 0 to 0.6 s: the window [0.1, 0.5] holds 41 of them.
     steps = np.arange(0, 60_001, 1000)
     record = run_record()
-    assert cc.production_indices(steps, record).size == 41
-    prefix = cc.prefix_of(steps, record, 1 / 8)
+    assert dv.production_indices(steps, record).size == 41
+    prefix = dv.prefix_of(steps, record, 1 / 8)
     assert (prefix.kept, prefix.total) == (6, 41)
     assert prefix.window == (0.1, pytest.approx(0.15))           # the 6th snapshot of the window
     assert prefix.kept_fraction == pytest.approx(6 / 41)
-    tiny = cc.prefix_of(steps, record, 0.01)
+    tiny = dv.prefix_of(steps, record, 0.01)
     assert tiny.kept == 2 and tiny.window[1] == pytest.approx(0.11)
-    whole = cc.prefix_of(steps, record, 1.0)
+    whole = dv.prefix_of(steps, record, 1.0)
     assert whole.window == (0.1, 0.5) and whole.kept == whole.total == 41
 
 
 def test_prefix_record_cuts_both_windows_and_says_so():
     record = run_record()
-    cut = cc.prefix_record(record, cc.Prefix((0.1, 0.15), 6, 41), 0.125)
+    cut = dv.prefix_record(record, dv.Prefix((0.1, 0.15), 6, 41), 0.125)
     assert cut["steady_state_window"] == [0.1, 0.15] and cut["production_window"] == [0.1, 0.15]
     assert cut["claims_cost"]["snapshots_kept"] == 6 and record["steady_state_window"] == [0.1, 0.5]
-    whole = cc.prefix_record(record, cc.Prefix((0.1, 0.5), 41, 41), 1.0)
+    whole = dv.prefix_record(record, dv.Prefix((0.1, 0.5), 41, 41), 1.0)
     assert whole["production_window"] == [0.1, 0.505]
 
 
@@ -134,45 +136,45 @@ def cost_record(run: str, shared: str | None = None, window_chunks: int = 0) -> 
 
 
 def test_cost_scales_the_production_and_pays_the_rest_in_full():
-    cost = cc.run_cost(cost_record("r1"))
+    cost = dv.run_cost(cost_record("r1"))
     assert (cost.fixed_core_seconds, cost.production_core_seconds) == (1200.0, 2400.0)
     assert (cost.fixed_particle_steps, cost.production_particle_steps) == (6e5, 1.2e6)
-    quarter = cc.variant_cost([cost], {"r1": 0.25}, {})
+    quarter = dv.variant_cost([cost], {"r1": 0.25}, {})
     assert quarter.core_hours == pytest.approx((1200.0 + 0.25 * 2400.0) / 3600.0)
     assert quarter.particle_steps == pytest.approx(6e5 + 0.25 * 1.2e6)
-    assert cc.variant_cost([cost], {}, {}).core_hours == 0.0  # a run not kept costs nothing
+    assert dv.variant_cost([cost], {}, {}).core_hours == 0.0  # a run not kept costs nothing
 
 
 def test_a_shared_fill_is_paid_once_and_the_window_floor():
-    costs = [cc.run_cost(cost_record("D4-r1", "fill-sheared-r1", 3)), cc.run_cost(cost_record("D7-r1", "fill-sheared-r1", 3)),
-             cc.run_cost(cost_record("D4-r2", "fill-sheared-r2", 3))]
-    bed = cc.shared_cost({"mpi_ranks": 2, "particle_count": 50, "wall_seconds_by_stage": {"fill": 30.0, "shear": 70.0},
+    costs = [dv.run_cost(cost_record("D4-r1", "fill-sheared-r1", 3)), dv.run_cost(cost_record("D7-r1", "fill-sheared-r1", 3)),
+             dv.run_cost(cost_record("D4-r2", "fill-sheared-r2", 3))]
+    bed = dv.shared_cost({"mpi_ranks": 2, "particle_count": 50, "wall_seconds_by_stage": {"fill": 30.0, "shear": 70.0},
                           "steps_by_stage": {"fill": 100, "shear": 300}})
     assert bed == (200.0, 20000.0)
     shared = {"fill-sheared-r1": bed, "fill-sheared-r2": bed}
-    one = cc.variant_cost(costs, {"D4-r1": 0.5, "D7-r1": 0.5}, shared)
+    one = dv.variant_cost(costs, {"D4-r1": 0.5, "D7-r1": 0.5}, shared)
     assert one.core_hours == pytest.approx((2 * (1200.0 + 1200.0) + 200.0) / 3600.0)
     # Three of the four production chunks are the steady-state test's window: at least 3/4 is paid.
     assert one.core_hours_with_window == pytest.approx((2 * (1200.0 + 0.75 * 2400.0) + 200.0) / 3600.0)
-    both = cc.variant_cost(costs, {"D4-r1": 1.0, "D7-r1": 1.0, "D4-r2": 1.0}, shared)
+    both = dv.variant_cost(costs, {"D4-r1": 1.0, "D7-r1": 1.0, "D4-r2": 1.0}, shared)
     assert both.core_hours == pytest.approx((3 * 3600.0 + 400.0) / 3600.0)
 
 
 def test_replicas_and_variants():
-    assert cc.replica_of("r3") == 3 and cc.replica_of("D4-control-r2") == 2 and cc.replica_of("D7-F0.3-r1") == 1
+    assert dv.replica_of("r3") == 3 and dv.replica_of("D4-control-r2") == 2 and dv.replica_of("D7-F0.3-r1") == 1
     with pytest.raises(ValueError):
-        cc.replica_of("fill")
-    assert cc.replica_subsets(1) == []
-    assert cc.replica_subsets(2) == [(2,), (1,)]
-    assert cc.replica_subsets(3) == [(2, 3), (1, 3), (1, 2), (1,)]
-    assert cc.replica_subsets(3, min_replicas=2) == [(2, 3), (1, 3), (1, 2)]
-    names = [v.name for v in cc.variants(cc.FRACTIONS, 2)]
+        dv.replica_of("fill")
+    assert dv.replica_subsets(1) == []
+    assert dv.replica_subsets(2) == [(2,), (1,)]
+    assert dv.replica_subsets(3) == [(2, 3), (1, 3), (1, 2), (1,)]
+    assert dv.replica_subsets(3, min_replicas=2) == [(2, 3), (1, 3), (1, 2)]
+    names = [v.name for v in dv.variants(dv.FRACTIONS, 2)]
     assert names == ["full", "prefix 1/8", "prefix 1/4", "prefix 1/2", "replicas r2", "replicas r1"]
-    assert cc.Variant(1.0, (1, 2)).kept([1, 2]) is None          # all of a two-replica case: no variant
-    assert cc.Variant(1.0, (2, 3)).kept([1]) is None             # none of a one-replica case
-    assert cc.Variant(1.0, (1, 3)).kept([1, 2, 3]) == [1, 3]
-    assert cc.Variant(0.5, (1, 2)).kept([1, 2]) == [1, 2]
-    assert cc.Variant().kept([1]) == [1]
+    assert dv.Variant(1.0, (1, 2)).kept([1, 2]) is None          # all of a two-replica case: no variant
+    assert dv.Variant(1.0, (2, 3)).kept([1]) is None             # none of a one-replica case
+    assert dv.Variant(1.0, (1, 3)).kept([1, 2, 3]) == [1, 3]
+    assert dv.Variant(0.5, (1, 2)).kept([1, 2]) == [1, 2]
+    assert dv.Variant().kept([1]) == [1]
 
 
 def test_the_rods_speed_over_a_prefix():
@@ -182,16 +184,16 @@ def test_the_rods_speed_over_a_prefix():
     series = pd.DataFrame({"time": t, "x": x})
     record = {"run": "D4-r1", "production_window": [1.0, 2.0],
               "intruder": {"speed": 2e-4, "speed_err": 1e-6, "arrested": False, "control": False}}
-    half, note = cc.prefix_rod(record, series, 0.5, 0.0)
+    half, note = dv.prefix_rod(record, series, 0.5, 0.0)
     assert half["intruder"]["speed"] == pytest.approx(1e-4) and not half["intruder"]["arrested"] and note == ""
     assert record["intruder"]["speed"] == 2e-4  # the root's record is not touched
-    whole, _ = cc.prefix_rod(record, series, 1.0, 0.0)
+    whole, _ = dv.prefix_rod(record, series, 1.0, 0.0)
     assert whole["intruder"]["speed"] == pytest.approx(2e-4)
-    short, note = cc.prefix_rod(record, series, 0.06, 0.0)  # 13 samples: 4 blocks
+    short, note = dv.prefix_rod(record, series, 0.06, 0.0)  # 13 samples: 4 blocks
     assert short["intruder"]["speed_blocks"] == 4 and "4 blocks of 13 samples" in note
-    _, note = cc.prefix_rod(record, series, 0.02, 0.0)
+    _, note = dv.prefix_rod(record, series, 0.02, 0.0)
     assert note.endswith("left out")
-    slow, _ = cc.prefix_rod(record, series, 0.5, 2e-4)  # below the rest speed: at rest
+    slow, _ = dv.prefix_rod(record, series, 0.5, 2e-4)  # below the rest speed: at rest
     assert slow["intruder"]["arrested"]
 
 
@@ -258,10 +260,10 @@ def test_the_rods_travel_and_steadiness_follow_the_prefix():
     record = {"run": "D4-r1", "d": 1e-5, "production_window": [1.0, 2.0],
               "intruder": {"speed": 1e-4, "speed_err": 1e-6, "arrested": False, "control": False, "halves": None,
                            "window": [1.0, 2.0], "displacement": 1e-4, "travel_over_d": 10.0}}
-    half, _ = cc.prefix_rod(record, series, 0.5, 0.0)
+    half, _ = dv.prefix_rod(record, series, 0.5, 0.0)
     rod = half["intruder"]
     assert rod["displacement"] == pytest.approx(0.5e-4) and rod["travel_over_d"] == pytest.approx(5.0)
     assert rod["halves"]["first"] == pytest.approx(1e-4) and rod["halves"]["first_duration"] == pytest.approx(0.25)
     assert set(rod["steadiness"]) == {"steady", "rod_class", "reason", "halves_z_normal"}
-    short, _ = cc.prefix_rod(record, series, 0.03, 0.0)  # 7 samples: too few for the halves; 0.3 d of travel
+    short, _ = dv.prefix_rod(record, series, 0.03, 0.0)  # 7 samples: too few for the halves; 0.3 d of travel
     assert short["intruder"]["halves"] is None and short["intruder"]["steadiness"]["rod_class"] == "unsteady"
