@@ -44,7 +44,7 @@ def last_production_stage(run_dir: Path) -> str:
     return stages[-1]
 
 
-def measure(run_dir: Path, stage: str) -> dict[str, float]:
+def measure(run_dir: Path, stage: str, dumps: bool = False) -> dict[str, float]:
     record = json.loads((run_dir / "run.json").read_text())
     if stage == "last":
         stage = last_production_stage(run_dir)
@@ -55,8 +55,10 @@ def measure(run_dir: Path, stage: str) -> dict[str, float]:
         (work / "logs").mkdir()
         (work / "dumps").mkdir()
         text = (work / f"in.{stage}").read_text()
-        # No dumps (their writing is the store's cost, not the engine's).
-        text = re.sub(r'variable dump_every string "\d+"', 'variable dump_every string "0"', text)
+        # No dumps (their writing is the store's cost, not the engine's), unless asked for: then the
+        # chunk writes its particle and contact dumps as the run did.
+        if not dumps:
+            text = re.sub(r'variable dump_every string "\d+"', 'variable dump_every string "0"', text)
         (work / f"in.{stage}").write_text(text)
         cmd = engine.command(f"in.{stage}", "logs/bench.log") if hasattr(engine, "command") else \
             engine.launcher.command(f"in.{stage}", "logs/bench.log")
@@ -100,6 +102,22 @@ def print_contention(run: Path, stage: str, repeats: int, copies: int) -> None:
           f"ratio {statistics.mean(ratios):.3f} +- {spread:.3f} over {repeats} pairs")
 
 
+def print_dump_cost(run: Path, stage: str, repeats: int) -> None:
+    """The chunk's CPU rate without its dumps and with them, alternated ``repeats`` times: their
+    ratio per pair is what writing the text dumps costs the engine on this bed."""
+    ratios, rates = [], {False: [], True: []}
+    for _ in range(repeats):
+        pair = {dumps: measure(run, stage, dumps=dumps)["per_core_second"] for dumps in (False, True)}
+        for dumps, rate in pair.items():
+            rates[dumps].append(rate / 1e6)
+        ratios.append(pair[True] / pair[False])
+    spread = statistics.stdev(ratios) if len(ratios) > 1 else float("nan")
+    print(f"{run}: without dumps {statistics.mean(rates[False]):.2f} M particle-steps / core-s "
+          f"({', '.join(f'{v:.2f}' for v in rates[False])}); with them {statistics.mean(rates[True]):.2f} "
+          f"({', '.join(f'{v:.2f}' for v in rates[True])}); with / without {statistics.mean(ratios):.3f} +- {spread:.3f} "
+          f"over {repeats} pairs")
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("runs", nargs="+", type=Path)
@@ -107,6 +125,9 @@ def main(argv: list[str] | None = None) -> int:
                         help="the chunk replayed: production_000 (default), any in.<stage> of the runs, or 'last' "
                              "(each run's last production chunk: continued rheometer states number theirs on)")
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--dumps", choices=("off", "on", "both"), default="off",
+                        help="the chunk without its dumps (off, the engine's own rate), with them as the run wrote "
+                             "them (on), or both in turn, with their ratio (what the text dumps cost the engine)")
     parser.add_argument("--concurrent", type=int, metavar="K",
                         help="instead: each run's chunk replayed alone and K copies at once, alternated (the slowdown "
                              "of an engine sharing the machine with K - 1 others, as the workflow's DEM jobs do)")
@@ -117,11 +138,15 @@ def main(argv: list[str] | None = None) -> int:
         for run in args.runs:
             print_contention(run, args.stage, args.repeats, args.concurrent)
         return 0
+    if args.dumps == "both":
+        for run in args.runs:
+            print_dump_cost(run, args.stage, args.repeats)
+        return 0
     print(f"{'run':<40} {'engine':<9} {'M p-steps':>9} {'M p-steps / core-s':>22} {'M p-steps / wall-s':>20} "
           f"{'(loop)':>8}")
     by_case: dict[str, list[float]] = {}
     for run in args.runs:
-        rows = [measure(run, args.stage) for _ in range(args.repeats)]
+        rows = [measure(run, args.stage, dumps=args.dumps == "on") for _ in range(args.repeats)]
         core = [r["per_core_second"] / 1e6 for r in rows]
         wall = [r["per_wall_second"] / 1e6 for r in rows]
         loop = [r["per_loop_second"] / 1e6 for r in rows]
