@@ -212,10 +212,8 @@ def dem_speed_by_case(root: Path, records: list[dict], jobs: pd.DataFrame, bare:
     engine alone on the case's own bed (``bare``, M per core-second; nan where not given), the
     seconds it would take for the same particle-steps (``alone_s``) and the ratios of the jobs'
     and the loops' rates to it."""
-    ranks = {(r["case"], r["run"]): r.get("mpi_ranks", 1) for r in records}
     dem = jobs[jobs["rule"] == "dem"]
-    slot_s = pd.Series({case: float(sum(row.seconds * ranks.get((row.case, row.job), 1) for row in group.itertuples()))
-                        for case, group in dem.groupby("case")}, name="slot_s")
+    slot_s = pd.Series({case: dem_slot_seconds(records, group) for case, group in dem.groupby("case")}, name="slot_s")
     table = engine_loops_by_case(root).join(slot_s, how="outer")
     table["jobs_M"] = table["loop_steps"] / table["slot_s"] / 1e6
     table["loops_M"] = table["loop_steps"] / table["loop_seconds"] / 1e6
