@@ -16,7 +16,8 @@ set's runs feed the calibration, the draws and every model; a held-out run its f
 and the scores; the calibration set's and the intruder's runs also the intruder's 2D model
 stage, :data:`INTRUDER_MODEL_SECONDS`). The long replicas of the calibration case then start first, the chains of
 continued rheometer states and the beds that several rods wait for next, and the short rods last,
-where they fill the slots to the end. The non-DEM rules run as soon as they are ready
+where they fill the slots to the end. The calibration set's jobs go before every other DEM job
+(:data:`CALIBRATION_SET_FIRST`), since every model waits for the calibration. The non-DEM rules run as soon as they are ready
 (:data:`AFTER_DEM_PRIORITY`, above every DEM rank): each is short, and they are the tail; among
 them the intruder models' jobs start first, slowest model first (:func:`intruder_model_priority`).
 
@@ -58,6 +59,12 @@ AFTER_DEM_PRIORITY = 1_000_000
 #: and were 36-50 s of the last minute with one slot idle (docs/dem_cost.md 30). The order is the
 #: reduced run's CPU seconds per model (nominal, grid study and sensitivities together).
 INTRUDER_MODELS_SLOWEST_FIRST = ("volume_averaged", "cosserat", "critical_state", "ngf", "local_mu_i")
+#: Raise of every calibration-set DEM job's priority, above any upward rank: every model job (the
+#: work that fills the second slot beside the DEM) waits for the calibration, so the calibration
+#: set runs first whatever the ranks. Upward ranks alone see one chain at a time: with the rods'
+#: estimate corrected (2.7 times short before, docs/dem_cost.md 31) the 18 rods outranked the
+#: rheometer's chains, and the model stage would have waited for all of them.
+CALIBRATION_SET_FIRST = 100_000
 #: Solid fraction of a settled bed (the gap estimate) and of the fill's loose pour.
 BED_SOLID_FRACTION = 0.6
 POUR_SOLID_FRACTION = 0.25
@@ -97,9 +104,16 @@ def _run_strain(config: dict[str, Any], case_name: str, case: dict[str, Any], ru
     cap = float(dem["production_strain"])
     if case["geometry"] == "intruder":
         _, control, _ = intruder_run(run)
-        minimum = float((dem.get("precision") or {}).get("min_production_strain", cap))
-        # A control is at rest after its window; a pushed rod settles in about three strain units.
-        return window + minimum if control else max(ROD_SHEAR_STRAIN, 2 * window) + min(cap, 2 * minimum)
+        precision = dem.get("precision") or {}
+        minimum = float(precision.get("min_production_strain", cap))
+        if control:  # at rest after its window
+            return window + minimum
+        # A pushed rod settles in about three strain units. Asked to travel a distance
+        # (``rod_min_travel_over_d``), a rod in the creeping zone runs to its cap: 17 of the 18
+        # pushed rods of the 2026-12-07 default did (travel 0.08-0.98 d at 8 strain units), and
+        # without this the estimate was 2.7 times short (docs/dem_cost.md 31).
+        production = cap if "rod_min_travel_over_d" in precision else min(cap, 2 * minimum)
+        return max(ROD_SHEAR_STRAIN, 2 * window) + production
     shear = float(dem.get("min_shear_strain", 0.0)) + window
     return shear + cap - (window if adopted else 0.0)
 
@@ -156,8 +170,10 @@ def upward_rank(config: dict[str, Any], case_name: str, job: str) -> float:
 
 
 def dem_priority(config: dict[str, Any], case_name: str, job: str) -> int:
-    """Snakemake ``priority`` of a DEM job: its upward rank in whole seconds (below :data:`AFTER_DEM_PRIORITY`)."""
-    return min(int(round(upward_rank(config, case_name, job))), AFTER_DEM_PRIORITY - 1)
+    """Snakemake ``priority`` of a DEM job: its upward rank in whole seconds, raised by
+    :data:`CALIBRATION_SET_FIRST` for the calibration set's jobs (below :data:`AFTER_DEM_PRIORITY`)."""
+    first = CALIBRATION_SET_FIRST if case_name in {c for c, _ in calibration_runs(config)} else 0
+    return min(int(round(upward_rank(config, case_name, job))) + first, AFTER_DEM_PRIORITY - 1)
 
 
 def intruder_model_priority(model: str) -> int:

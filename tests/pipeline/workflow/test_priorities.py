@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from pipeline.common.config import dem_fills, dem_runs, load_config
+from pipeline.common.config import calibration_runs, dem_fills, dem_runs, load_config
 from pipeline.workflow.priorities import (AFTER_DEM_PRIORITY, PARTICLE_STEPS_PER_SECOND, _dependents, dem_priority, estimated_seconds,
                                          fill_steps, upward_rank)
 
@@ -75,3 +75,29 @@ def test_every_intruder_model_is_ordered_and_all_start_before_the_other_rules_af
     priorities = [intruder_model_priority(m) for m in INTRUDER_MODELS_SLOWEST_FIRST]
     assert priorities == sorted(set(priorities), reverse=True)
     assert min(priorities) > AFTER_DEM_PRIORITY
+
+
+def test_the_calibration_set_runs_before_every_other_dem_job(config: dict) -> None:
+    """Every model waits for the calibration: each calibration-set job (its fills and runs) ranks
+    above every other DEM job, the rods included, whose corrected estimates (a rod in the creeping
+    zone runs to its production cap) give them longer chains than the rheometer's."""
+    calibration = {c for c, _ in calibration_runs(config)}
+    ranks = {(c, j): dem_priority(config, c, j) for c, j in dem_fills(config) + dem_runs(config)}
+    lowest_calibration = min(v for (c, _), v in ranks.items() if c in calibration)
+    highest_other = max(v for (c, _), v in ranks.items() if c not in calibration)
+    assert lowest_calibration > highest_other
+    assert max(upward_rank(config, "intruder", j) for c, j in dem_runs(config) if c == "intruder") > \
+        min(upward_rank(config, c, j) for c, j in dem_fills(config) + dem_runs(config) if c == "rheometer")
+
+
+def test_a_pushed_rod_asked_to_travel_is_estimated_at_its_production_cap(config: dict) -> None:
+    """With ``rod_min_travel_over_d`` a pushed rod's production is its strain cap (the default's
+    rods ran to it), without it twice its minimum: the estimate falls by the difference's steps."""
+    relaxed = copy.deepcopy(config)
+    relaxed["cases"]["intruder"]["precision"].pop("rod_min_travel_over_d")
+    relaxed["dem"].get("precision", {}).pop("rod_min_travel_over_d", None)
+    capped = estimated_seconds(config, "intruder", "D4.5-r1")
+    short = estimated_seconds(relaxed, "intruder", "D4.5-r1")
+    assert capped > short
+    control_capped = estimated_seconds(config, "intruder", "D4.5-control-r1")
+    assert control_capped == pytest.approx(estimated_seconds(relaxed, "intruder", "D4.5-control-r1"))
