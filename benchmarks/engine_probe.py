@@ -48,12 +48,6 @@ FIELDS = ("pid", "cwd", "log", "start_s", "last_s", "on_core_s", "waiting_s", "s
 TICKS = os.sysconf("SC_CLK_TCK")
 
 
-def boot_time() -> float:
-    """The clock time (s since the epoch) of the kernel's boot, the origin of a process's start time."""
-    with open("/proc/stat") as stat:
-        return float(next(line for line in stat if line.startswith("btime")).split()[1])
-
-
 def engine_process(pid: str) -> dict | None:
     """The identity of an engine process (None if ``pid`` is no engine or is gone)."""
     try:
@@ -62,9 +56,12 @@ def engine_process(pid: str) -> dict | None:
         args = Path(f"/proc/{pid}/cmdline").read_text().split("\0")
         stat = Path(f"/proc/{pid}/stat").read_text()
         start_ticks = int(stat.rsplit(")", 1)[1].split()[19])  # field 22 of stat
+        # The start on the clock from the time since it (/proc/uptime), not from the boot's clock
+        # time (/proc/stat btime): in a virtual machine restored from a snapshot the two differ.
+        age = float(Path("/proc/uptime").read_text().split()[0]) - start_ticks / TICKS
         return {"pid": pid, "cwd": os.readlink(f"/proc/{pid}/cwd"),
                 "log": args[args.index("-log") + 1] if "-log" in args else "",
-                "start_s": BOOT + start_ticks / TICKS}
+                "start_s": time.time() - age}
     except (OSError, ValueError, IndexError):
         return None
 
@@ -107,7 +104,8 @@ def sample(seconds: float, every: float, out: Path, until_gone: int | None) -> N
 def loops(csv_paths: list[Path]) -> pd.DataFrame:
     """Each sampled process with its log's loops: case (the run folder's parent), particle-steps,
     loop seconds (wall, per process), life, on-core and waiting seconds."""
-    probe = pd.concat([pd.read_csv(p, dtype={"pid": str}) for p in csv_paths], ignore_index=True)
+    probe = pd.concat([pd.read_csv(p, dtype={"pid": str, "log": str}, keep_default_na=False) for p in csv_paths],
+                      ignore_index=True)
     rows = []
     for _, p in probe.iterrows():
         log = Path(p["cwd"]) / p["log"]
@@ -185,8 +183,6 @@ def main() -> None:
                 raise SystemExit(f"engine_probe: --bare {item!r}: expected CASE=M (a number)") from None
         report(args.csv, bare)
 
-
-BOOT = boot_time()
 
 if __name__ == "__main__":
     main()
