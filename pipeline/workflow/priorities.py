@@ -63,7 +63,10 @@ INTRUDER_MODELS_SLOWEST_FIRST = ("volume_averaged", "cosserat", "critical_state"
 #: work that fills the second slot beside the DEM) waits for the calibration, so the calibration
 #: set runs first whatever the ranks. Upward ranks alone see one chain at a time: with the rods'
 #: estimate corrected (2.7 times short before, docs/dem_cost.md 31) the 18 rods outranked the
-#: rheometer's chains, and the model stage would have waited for all of them.
+#: rheometer's chains, and the model stage would have waited for all of them. The shared fills and
+#: sheared beds of every case are raised too: each gates several runs, and started after the
+#: calibration set (the intruder's three beds, about 130 s each, for its 18 rods) they left a slot
+#: idle while the rods waited (+67 s of wall in benchmarks/schedule_estimate.py on the default).
 CALIBRATION_SET_FIRST = 100_000
 #: Solid fraction of a settled bed (the gap estimate) and of the fill's loose pour.
 BED_SOLID_FRACTION = 0.6
@@ -171,8 +174,10 @@ def upward_rank(config: dict[str, Any], case_name: str, job: str) -> float:
 
 def dem_priority(config: dict[str, Any], case_name: str, job: str) -> int:
     """Snakemake ``priority`` of a DEM job: its upward rank in whole seconds, raised by
-    :data:`CALIBRATION_SET_FIRST` for the calibration set's jobs (below :data:`AFTER_DEM_PRIORITY`)."""
-    first = CALIBRATION_SET_FIRST if case_name in {c for c, _ in calibration_runs(config)} else 0
+    :data:`CALIBRATION_SET_FIRST` for the calibration set's jobs and every shared fill or sheared
+    bed (below :data:`AFTER_DEM_PRIORITY`)."""
+    calibration = case_name in {c for c, _ in calibration_runs(config)}
+    first = CALIBRATION_SET_FIRST if calibration or job in shared_fill_ids(case_name, config["cases"][case_name]) else 0
     return min(int(round(upward_rank(config, case_name, job))) + first, AFTER_DEM_PRIORITY - 1)
 
 

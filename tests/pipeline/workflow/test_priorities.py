@@ -79,13 +79,16 @@ def test_every_intruder_model_is_ordered_and_all_start_before_the_other_rules_af
 
 def test_the_calibration_set_runs_before_every_other_dem_job(config: dict) -> None:
     """Every model waits for the calibration: each calibration-set job (its fills and runs) ranks
-    above every other DEM job, the rods included, whose corrected estimates (a rod in the creeping
-    zone runs to its production cap) give them longer chains than the rheometer's."""
+    above every other case's run, the rods included, whose corrected estimates (a rod in the
+    creeping zone runs to its production cap) give them longer chains than the rheometer's; the
+    other cases' shared fills and sheared beds, which gate their runs, rank with the calibration set."""
     calibration = {c for c, _ in calibration_runs(config)}
     ranks = {(c, j): dem_priority(config, c, j) for c, j in dem_fills(config) + dem_runs(config)}
     lowest_calibration = min(v for (c, _), v in ranks.items() if c in calibration)
-    highest_other = max(v for (c, _), v in ranks.items() if c not in calibration)
+    highest_other = max(v for (c, j), v in ranks.items() if c not in calibration and (c, j) in dem_runs(config))
     assert lowest_calibration > highest_other
+    other_fills = [v for (c, j), v in ranks.items() if c not in calibration and (c, j) in dem_fills(config)]
+    assert not other_fills or min(other_fills) > highest_other
     assert max(upward_rank(config, "intruder", j) for c, j in dem_runs(config) if c == "intruder") > \
         min(upward_rank(config, c, j) for c, j in dem_fills(config) + dem_runs(config) if c == "rheometer")
 
