@@ -7,13 +7,17 @@ per case to measured slot-seconds where ``--measured CASE=SECONDS`` gives them) 
 on ``--slots`` slots, each run followed by its share of the work after the DEM
 (``--after-dem`` slot-seconds spread over the runs: dumps, fields), then the serial tail to the
 report (``--tail`` seconds: calibration, draws, models, scores, report once the last DEM is in).
+The intruder's 2D model stage (``--intruder-models`` slot-seconds in ``--intruder-model-jobs``
+equal jobs) waits for every calibration-set run (the models need the calibration) and every
+intruder run (their scenes), and starts before any DEM job once ready, as the workflow asks: the
+order of the DEM decides how much of it runs beside the DEM.
 Orders: by priority (the upward rank, as the workflow now asks Snakemake), in the config's order,
 and without priorities, where Snakemake's choice among equally ranked ready jobs is arbitrary as
 to their length: ``--random`` random orders (seeded), their median and 90th percentile. Printed:
 the DEM slot-seconds by case, the wall time and the busy fraction of each order.
 
 Usage: ``python benchmarks/schedule_estimate.py config/config.yaml [--slots 2] [--after-dem 480] [--tail 100]
-[--measured shear_gravity=3018 ...]``
+[--measured shear_gravity=3018 ...] [--intruder-models 882 --intruder-model-jobs 10]``
 """
 from __future__ import annotations
 
@@ -28,7 +32,8 @@ import numpy as np
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
-from pipeline.common.config import dem_fills, dem_runs, load_config, predecessor_state, shared_fill_of  # noqa: E402
+from pipeline.common.config import (calibration_runs, dem_fills, dem_runs, load_config, predecessor_state,  # noqa: E402
+                                    shared_fill_of)
 from pipeline.workflow.priorities import dem_priority, estimated_seconds  # noqa: E402
 
 
@@ -65,6 +70,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seed", type=int, default=45)
     parser.add_argument("--measured", nargs="*", default=[], metavar="CASE=SECONDS",
                         help="measured DEM slot-seconds of a case: its jobs' estimates are scaled to them")
+    parser.add_argument("--intruder-models", type=float, default=0.0,
+                        help="slot-seconds of the intruder's model stage (after the calibration set and every rod)")
+    parser.add_argument("--intruder-model-jobs", type=int, default=10, help="jobs it is split into (default 10)")
     args = parser.parse_args(argv)
     config = load_config(args.config)
     dem = dem_fills(config) + dem_runs(config)
@@ -90,6 +98,15 @@ def main(argv: list[str] | None = None) -> int:
         needs[follow] = [(case, run)]
         # Right after its run (as every rule after the DEM has the top priority).
         order_priority[follow] = order_config[follow] = 1e9
+    if args.intruder_models > 0:
+        calibration = {c for c, _ in calibration_runs(config)}
+        gate = [(c, r) for c, r in dem_runs(config)
+                if c in calibration or config["cases"][c]["geometry"] == "intruder"]
+        for k in range(args.intruder_model_jobs):
+            job = ("intruder models", f"part{k}:after")
+            jobs[job] = args.intruder_models / args.intruder_model_jobs
+            needs[job] = gate
+            order_priority[job] = order_config[job] = 1e9 + 1
     by_case: dict[str, float] = defaultdict(float)
     for (case, _), s in seconds.items():
         by_case[case] += s
