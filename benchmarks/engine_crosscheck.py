@@ -10,7 +10,8 @@ printed first). Compared, each with its error:
 - every planar case with gravity: ``log10(u / V)`` of the replica mean (:func:`pipeline.common.observables.replica_mean`)
   at whole d below the top contact plane, where both roots resolve it above 2 errors; the decades
   resolved (``validation/creep_resolution.csv``, no error); the calibrated local laws (mu_s, mu_2,
-  I_0, nu_c, a of ``calibration/params.json``: the states as curves); the same creep **at equal mu / mu_s**
+  I_0, nu_c, a of ``calibration/params.json``, or for a root without a calibration the same fits
+  on its rheometer fields: the states as curves); the same creep **at equal mu / mu_s**
   (issue 56, item 5: each bed's own replica-mean mu(z) = tau / p over its root's calibrated mu_s, at
   ``MU_RATIO_LEVELS``; the error adds mu's replica scatter and mu_s's calibration error, through the
   profile's local slope, to u's); the creep law's ``beta``
@@ -29,6 +30,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import functools
 import json
 import math
 import re
@@ -43,7 +45,9 @@ from scipy import stats
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from pipeline.calibration.calibrate import bulk_state  # noqa: E402
+from pipeline.calibration.calibrate import bulk_state, rheometer_laws  # noqa: E402
+from pipeline.calibration.parameter_sets import calibration_settings  # noqa: E402
+from pipeline.common.config import RHEOMETER  # noqa: E402
 from pipeline.common.formats import open_fields  # noqa: E402
 from pipeline.common.observables import creep_speed, replica_mean  # noqa: E402
 
@@ -233,11 +237,31 @@ def params_of(root: Path) -> dict[str, Any] | None:
     return json.loads(path.read_text()) if path.is_file() else None
 
 
+@functools.lru_cache(maxsize=None)
+def laws_of(root: Path) -> dict[str, Any] | None:
+    """The local laws' ``local`` and ``covariance`` entries: the calibration's
+    (``calibration/params.json``), or for a root without one (a study that ran the rheometer
+    alone) the same fits on its rheometer fields (:func:`pipeline.calibration.calibrate.rheometer_laws`,
+    said so on stdout); None without either."""
+    params = params_of(root)
+    if params is not None:
+        return params
+    files = sorted((root / "fields" / RHEOMETER).glob("*.nc"))
+    if not files:
+        return None
+    margin = calibration_settings(config_of(root))["bulk_margin_over_d"]
+    _, _, mu_fit, nu_fit = rheometer_laws(files, margin)
+    print(f"{root}: no calibration; mu(I) and nu(I) fitted here on its {len(files)} rheometer fields files")
+    return {"local": {n: {"value": fit.values[n], "error": fit.errors[n]} for fit in (mu_fit, nu_fit) for n in fit.names},
+            "covariance": {law: {"names": list(fit.names), "matrix": np.asarray(fit.covariance).tolist()}
+                           for law, fit in (("mu_i", mu_fit), ("nu_i", nu_fit))}}
+
+
 def local_law(root: Path) -> dict[str, tuple[float, float]]:
     """The calibrated local laws mu(I) and nu(I) (``calibration/params.json``'s ``local``): the
     states compared as curves, so a state whose realised I differs between the roots is read on
     the curve, not against the other root's different point."""
-    params = params_of(root)
+    params = laws_of(root)
     if params is None:
         return {}
     return {name: (float(e["value"]), float(e["error"]))
@@ -247,7 +271,7 @@ def local_law(root: Path) -> dict[str, tuple[float, float]]:
 def law_chi2(root_a: Path, root_b: Path, law: str) -> tuple[float, int, float] | None:
     """chi2 = D^T (C_a + C_b)^-1 D of a calibrated law's parameters (``covariance[law]`` of both
     roots' ``calibration/params.json``: the parameters' correlations counted), its dof and p."""
-    pa, pb = params_of(root_a), params_of(root_b)
+    pa, pb = laws_of(root_a), laws_of(root_b)
     if pa is None or pb is None:
         return None
     ca, cb = pa["covariance"].get(law), pb["covariance"].get(law)

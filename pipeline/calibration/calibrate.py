@@ -113,6 +113,23 @@ def _entry(value: float, error: float, fitted_on: str, note: str = "") -> dict[s
     return entry
 
 
+def rheometer_laws(rheometer_files: list[Path], margin_over_d: float
+                   ) -> tuple[list[dict[str, Any]], dict[str, dict[str, float]], fits.FitResult, fits.FitResult]:
+    """The local laws mu(I) and nu(I) fitted on rheometer fields files: their bulk states (errors
+    held to the replicas' scatter, :func:`scale_state_errors`), the error check, and the two fits
+    (values, errors, covariances). ``margin_over_d``: the bulk's distance from the walls (in d)."""
+    states = [bulk_state(Path(f), margin_over_d) for f in rheometer_files]
+    error_scales = scale_state_errors(states, [run_label(Path(f))[1] for f in rheometer_files])
+    if len(states) < 3:
+        raise CalibrationError(f"mu(I) has 3 parameters: need at least 3 rheometer states, got {len(states)}")
+    inertial = np.array([s["I"] for s in states])
+    if len({round(math.log10(i), 2) for i in inertial}) < 3:
+        raise CalibrationError(f"mu(I) needs 3 distinct inertial numbers, got I = {inertial.tolist()}")
+    mu_fit = fits.fit_mu_i(inertial, np.array([s["mu"] for s in states]), np.array([s["mu_err"] for s in states]))
+    nu_fit = fits.fit_solid_fraction(inertial, np.array([s["nu"] for s in states]), np.array([s["nu_err"] for s in states]))
+    return states, error_scales, mu_fit, nu_fit
+
+
 def calibrate(config: dict[str, Any], rheometer_files: list[Path], nonlocal_files: list[Path] | None = None) -> dict[str, Any]:
     """All parameters with errors and provenance (the content of ``params.json``); the non-local
     lengths from the replica mean of ``nonlocal_files`` (:mod:`pipeline.calibration.nonlocal_fit`)."""
@@ -120,15 +137,8 @@ def calibrate(config: dict[str, Any], rheometer_files: list[Path], nonlocal_file
     nonlocal_files = [Path(f) for f in (nonlocal_files or [])]
     read = [run_label(Path(f)) for f in [*rheometer_files, *nonlocal_files]]
     check_calibration_set(config, read)
-    states = [bulk_state(Path(f), settings["bulk_margin_over_d"]) for f in rheometer_files]
-    error_scales = scale_state_errors(states, [run_label(Path(f))[1] for f in rheometer_files])
-    if len(states) < 3:
-        raise CalibrationError(f"mu(I) has 3 parameters: need at least 3 rheometer states, got {len(states)}")
+    states, error_scales, mu_fit, nu_fit = rheometer_laws(rheometer_files, settings["bulk_margin_over_d"])
     arr = {k: np.array([s[k] for s in states]) for k in ("I", "I_err", "mu", "mu_err", "nu", "nu_err", "p")}
-    if len({round(math.log10(i), 2) for i in arr["I"]}) < 3:
-        raise CalibrationError(f"mu(I) needs 3 distinct inertial numbers, got I = {arr['I'].tolist()}")
-    mu_fit = fits.fit_mu_i(arr["I"], arr["mu"], arr["mu_err"])
-    nu_fit = fits.fit_solid_fraction(arr["I"], arr["nu"], arr["nu_err"])
     cs_fit = fits.fit_critical_state(arr["I"], arr["mu"], arr["mu_err"], arr["p"], arr["nu"], arr["nu_err"])
     on_rheo = "rheometer"
     cs_notes = {}
