@@ -150,9 +150,10 @@ def report(csv_paths: list[Path], bare: dict[str, float]) -> None:
                "on core / life": round(g["on_core_s"].sum() / g["life_s"].sum(), 3),
                "waiting / loop, at most": round(g["waiting_high_s"].sum() / loop_s, 4),
                "M per core-s": f"{low:.3f}-{high:.3f}"}
-        if case in bare:
-            row |= {"loops / alone": round(rate / bare[case], 3),
-                    "on a core / alone": f"{low / bare[case]:.3f}-{high / bare[case]:.3f}"}
+        alone = bare.get(f"{root}/{case}", bare.get(case))
+        if alone is not None:
+            row |= {"loops / alone": round(rate / alone, 3),
+                    "on a core / alone": f"{low / alone:.3f}-{high / alone:.3f}"}
         rows.append(row)
     print(pd.DataFrame(rows).to_string(index=False))
     print("\nper process, quartiles of the loop's speed (M/s) and of its waiting share of the loop")
@@ -172,7 +173,8 @@ def main() -> None:
     r = sub.add_parser("report", help="join the samples to the engine logs and print the split")
     r.add_argument("csv", type=Path, nargs="+")
     r.add_argument("--bare", nargs="*", default=[], metavar="CASE=M",
-                   help="the engine alone on each case's bed, M particle-steps per core-second")
+                   help="the engine alone on each case's bed, M particle-steps per core-second: CASE for "
+                        "every root's case, ROOT/CASE for one root's (roots of two engines)")
     args = parser.parse_args()
     if args.command == "sample":
         sample(args.seconds, args.every, args.out, args.until_gone)
