@@ -252,10 +252,11 @@ def laws_of(root: Path) -> dict[str, Any] | None:
     margin = calibration_settings(config_of(root))["bulk_margin_over_d"]
     _, _, mu_fit, nu_fit = rheometer_laws(files, margin)
     print(f"{root}: no calibration; mu(I) and nu(I) fitted here on its {len(files)} rheometer fields files")
-    return {"local": {n: {"value": fit.values[n], "error": fit.errors[n]} for fit in (mu_fit, nu_fit) for n in fit.names},
+    laws = {"mu_i": mu_fit, "nu_i": nu_fit}
+    return {"local": {n: {"value": fit.values[n], "error": fit.errors[n]} for fit in laws.values() for n in fit.names},
             "covariance": {law: {"names": list(fit.names), "matrix": np.asarray(fit.covariance).tolist()}
-                           for law, fit in (("mu_i", mu_fit), ("nu_i", nu_fit))},
-            "fit_quality": {f"{law}_chi2_reduced": fit.chi2_reduced for law, fit in (("mu_i", mu_fit), ("nu_i", nu_fit))}}
+                           for law, fit in laws.items()},
+            "fit_quality": {f"{law}_chi2_reduced": fit.chi2_reduced for law, fit in laws.items()}}
 
 
 def local_law(root: Path) -> dict[str, tuple[float, float]]:
@@ -284,14 +285,15 @@ def law_chi2(root_a: Path, root_b: Path, law: str, scaled: bool = False) -> tupl
     if ca is None or cb is None or ca["names"] != cb["names"]:
         return None
     diff = np.array([pb["local"][n]["value"] - pa["local"][n]["value"] for n in ca["names"]])
-    factor = [max(1.0, float(p["fit_quality"][f"{law}_chi2_reduced"])) if scaled else 1.0 for p in (pa, pb)]
+    factor = [max(1.0, fit_scale(root, law)) if scaled else 1.0 for root in (root_a, root_b)]
     cov = factor[0] * np.asarray(ca["matrix"]) + factor[1] * np.asarray(cb["matrix"])
     chi2 = float(diff @ np.linalg.solve(cov, diff))
     return chi2, len(diff), float(stats.chi2.sf(chi2, len(diff)))
 
 
 def fit_scale(root: Path, law: str) -> float:
-    """The reduced chi2 of ``root``'s fit of ``law`` (NaN without a calibration or fit)."""
+    """The reduced chi2 of ``root``'s fit of ``law`` (NaN without a calibration or fit; max(1, NaN)
+    is 1: no scale)."""
     params = laws_of(root)
     return float((params or {}).get("fit_quality", {}).get(f"{law}_chi2_reduced", float("nan")))
 

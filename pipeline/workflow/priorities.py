@@ -16,8 +16,9 @@ set's runs feed the calibration, the draws and every model; a held-out run its f
 and the scores; the calibration set's and the intruder's runs also the intruder's 2D model
 stage, :data:`INTRUDER_MODEL_SECONDS`). The long replicas of the calibration case then start first, the chains of
 continued rheometer states and the beds that several rods wait for next, and the short rods last,
-where they fill the slots to the end. The calibration set's jobs go before every other DEM job
-(:data:`CALIBRATION_SET_FIRST`), since every model waits for the calibration. The non-DEM rules run as soon as they are ready
+where they fill the slots to the end. The calibration set's jobs, and every shared fill or sheared
+bed, go before every other DEM job (:data:`CALIBRATION_SET_FIRST`), since every model waits for
+the calibration and a fill gates several runs. The non-DEM rules run as soon as they are ready
 (:data:`AFTER_DEM_PRIORITY`, above every DEM rank): each is short, and they are the tail; among
 them the intruder models' jobs start first, slowest model first (:func:`intruder_model_priority`).
 
