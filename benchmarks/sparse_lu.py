@@ -1,15 +1,20 @@
-"""Benchmark (issue 57, item 1): the 2D plastic intruder jobs with PARDISO's LU against SuperLU's,
-side by side in one process (alternating, CPU seconds by time.process_time; never a test).
+"""Benchmark (issue 57, items 1 and 4): the 2D plastic intruder jobs with two sparse-LU set-ups side
+by side in one process (alternating, CPU seconds by time.process_time; never a test): by default
+PARDISO with its analysis reused between a Newton solve's Jacobians and GMRES preconditioned without
+PARDISO's refinement steps (``pardiso-reuse``, the pipeline's) against PARDISO analysing every
+Jacobian and refining every preconditioner application (``pardiso``, the set-up of docs/dem_cost.md
+26); ``--compare superlu pardiso`` gives that section's comparison.
 
 For each model of ``--models`` and each job of ``--jobs`` (``nominal``: ``python -m pipeline.models
 intruder``, the depth and force sweeps and their F = 0 drifts at 3 cells per d; ``refined``: the grid
 study's finer grid, ``intruder-draws refined``), the job runs on ROOT's own inputs once per backend
-per repeat (``continuum.intruder.sparse_lu.DEFAULT_BACKEND`` set between runs, the order alternated),
+per repeat (``continuum.intruder.sparse_lu``'s settings changed between runs, the order alternated),
 and prints the CPU seconds, their ratio, and the largest relative difference of any speed the two
 backends wrote (the stages' tolerance is a scaled residual of 1e-6, so U agrees to far below the
 grid study's differences).
 
-Run: ``python benchmarks/sparse_lu.py ROOT --out OUT [--models ...] [--jobs nominal refined] [--repeats 1]``
+Run: ``python benchmarks/sparse_lu.py ROOT --out OUT [--models ...] [--jobs nominal refined] [--repeats 1]
+[--compare pardiso pardiso-reuse]``
 """
 from __future__ import annotations
 
@@ -27,6 +32,9 @@ from continuum.intruder import sparse_lu  # noqa: E402
 from pipeline.models import intruder, intruder_draws  # noqa: E402
 
 PLASTIC = ("local_mu_i", "critical_state", "cosserat", "volume_averaged")
+#: The set-ups compared: (backend, reuse the analysis, precondition without refinement).
+SETUPS = {"superlu": ("superlu", False, False), "pardiso": ("pardiso", False, False),
+          "pardiso-reuse": ("pardiso", True, True)}
 SPEEDS = {"nominal": ("speed", "sweep_speed", "drift_speed", "sweep_drift_speed"), "refined": ("speed_refined",)}
 
 
@@ -43,9 +51,9 @@ def job_argv(root: Path, job: str, model: str, out: Path) -> list[str]:
 
 
 def run(root: Path, job: str, model: str, backend: str, out: Path) -> tuple[float, dict[str, np.ndarray]]:
-    """CPU seconds of one job with ``backend``, and the speeds it wrote."""
+    """CPU seconds of one job with the set-up ``backend`` (a key of ``SETUPS``), and the speeds it wrote."""
     out.mkdir(parents=True, exist_ok=True)
-    sparse_lu.DEFAULT_BACKEND = backend
+    sparse_lu.DEFAULT_BACKEND, sparse_lu.ANALYSIS_REUSE, sparse_lu.PRECONDITION_UNREFINED = SETUPS[backend]
     main = intruder.main if job == "nominal" else intruder_draws.main
     t0 = time.process_time()
     code = main(job_argv(root, job, model, out))
@@ -78,21 +86,22 @@ def main() -> int:
     parser.add_argument("--models", nargs="+", default=list(PLASTIC), choices=PLASTIC)
     parser.add_argument("--jobs", nargs="+", default=["nominal", "refined"], choices=["nominal", "refined"])
     parser.add_argument("--repeats", type=int, default=1)
+    parser.add_argument("--compare", nargs=2, default=["pardiso", "pardiso-reuse"], choices=sorted(SETUPS),
+                        metavar="SETUP", help=f"the two set-ups, A then B (ratio A / B); of {', '.join(SETUPS)}")
     args = parser.parse_args()
-    totals = {"superlu": 0.0, "pardiso": 0.0}
-    print(f"{'job':8s} {'model':16s} {'rep':>3s} {'superlu s':>10s} {'pardiso s':>10s} {'ratio':>6s} {'max rel dU':>10s}")
+    a, b = args.compare
+    totals = {a: 0.0, b: 0.0}
+    print(f"{'job':8s} {'model':16s} {'rep':>3s} {a + ' s':>14s} {b + ' s':>14s} {'ratio':>6s} {'max rel dU':>10s}")
     for job in args.jobs:
         for model in args.models:
             for rep in range(args.repeats):
-                order = ("superlu", "pardiso") if rep % 2 == 0 else ("pardiso", "superlu")
-                got = {b: run(args.root, job, model, b, args.out / b / job) for b in order}
-                for b in got:
-                    totals[b] += got[b][0]
-                cpu_s, cpu_p = got["superlu"][0], got["pardiso"][0]
-                print(f"{job:8s} {model:16s} {rep:3d} {cpu_s:10.1f} {cpu_p:10.1f} {cpu_s / cpu_p:6.2f} "
-                      f"{largest_difference(got['superlu'][1], got['pardiso'][1]):10.2g}", flush=True)
-    print(f"total CPU s: superlu {totals['superlu']:.1f}, pardiso {totals['pardiso']:.1f}, "
-          f"ratio {totals['superlu'] / totals['pardiso']:.3f}")
+                order = (a, b) if rep % 2 == 0 else (b, a)
+                got = {s: run(args.root, job, model, s, args.out / s / job) for s in order}
+                for s in got:
+                    totals[s] += got[s][0]
+                print(f"{job:8s} {model:16s} {rep:3d} {got[a][0]:14.1f} {got[b][0]:14.1f} {got[a][0] / got[b][0]:6.2f} "
+                      f"{largest_difference(got[a][1], got[b][1]):10.2g}", flush=True)
+    print(f"total CPU s: {a} {totals[a]:.1f}, {b} {totals[b]:.1f}, ratio {totals[a] / totals[b]:.3f}")
     return 0
 
 

@@ -42,6 +42,12 @@ PARDISO_IPARM = {1: 1, 2: 2, 8: 2, 10: 13, 11: 0, 13: 0}
 #: The factor a checked solve falls back on: scaling and a weighted matching (PARDISO's defaults for
 #: unsymmetric matrices) and a perturbation of 1e-8, twice the time of ``PARDISO_IPARM``'s.
 PARDISO_ROBUST_IPARM = {**PARDISO_IPARM, 10: 8, 11: 1, 13: 1}
+#: Whether a factorisation that replaces another reuses its symbolic analysis (``PardisoLU``'s
+#: ``reuse``; a benchmark turns it off to compare).
+ANALYSIS_REUSE = True
+#: Whether GMRES's preconditioner applies the factor without PARDISO's refinement steps
+#: (``PardisoLU.precondition``; a benchmark turns it off to compare).
+PRECONDITION_UNREFINED = True
 #: Steps of iterative refinement a checked solve may take beyond PARDISO's own.
 REFINEMENTS = 4
 #: MKL's ``MKL_THREADING_SEQUENTIAL``.
@@ -75,28 +81,90 @@ def _pardiso_library() -> str:
 class PardisoLU:
     """One PARDISO factorisation of a square sparse matrix; ``solve`` as SuperLU's. It factorises
     with ``PARDISO_IPARM``; a checked solve that this factor cannot bring under its tolerance
-    factorises once more with ``PARDISO_ROBUST_IPARM`` (``robust`` then True) before it refuses."""
+    factorises once more with ``PARDISO_ROBUST_IPARM`` (``robust`` then True) before it refuses.
 
-    def __init__(self, a: sp.spmatrix):
-        self._a = sp.csr_matrix(a, dtype=np.float64, copy=True)
-        self._a.sort_indices()
+    ``reuse``: the factorisation this one replaces (a Newton step's previous LU). Its PARDISO
+    handle is taken over and, when this matrix's nonzeros lie inside the sparsity pattern that
+    handle analysed, only the numerical factorisation is redone (phase 22): the METIS ordering and
+    symbolic analysis are about half of a factorisation (docs/dem_cost.md 33). The pattern
+    analysed is the union of the patterns seen (scipy's sparse sums drop the entries that cancel,
+    so consecutive Jacobians differ by a few entries); the matrix is stored on it with explicit
+    zeros. ``reuse`` is spent: it must not be solved with again."""
+
+    def __init__(self, a: sp.spmatrix, reuse: "PardisoLU | None" = None):
+        a = sp.csr_matrix(a, dtype=np.float64, copy=True)
+        a.sum_duplicates()
+        a.eliminate_zeros()
+        a.sort_indices()
         self.robust = False
         self._solver = None
+        self.analysed = False  # whether this factorisation ran the symbolic analysis
+        previous = reuse if isinstance(reuse, PardisoLU) and ANALYSIS_REUSE else None
+        if previous is not None and previous._solver is not None and not previous.robust \
+                and previous._a.shape == a.shape:
+            inside = _positions(previous._keys, a)
+            if inside is not None:
+                self._adopt(previous)
+                values = np.zeros(self._keys.size)
+                values[inside] = a.data
+                self._a = sp.csr_matrix((values, previous._a.indices, previous._a.indptr), shape=a.shape)
+                self._call(22, np.zeros(a.shape[0]))
+                return
+            # a pattern outside the analysed one: analyse their union (it stops growing within a stage)
+            a = _on_union(previous._a, a)
+            previous._free()
+        elif previous is not None:
+            previous._free()
+        self._set_matrix(a)
         self._factorise(PARDISO_IPARM)
+
+    def _set_matrix(self, a: sp.csr_matrix) -> None:
+        self._a = a
+        n = a.shape[0]
+        self._keys = np.repeat(np.arange(n, dtype=np.int64), np.diff(a.indptr)) * n + a.indices
+        # PARDISO's 1-based index arrays, built once (pypardiso rebuilds them at every call)
+        self._ia = (a.indptr + 1).astype(np.int32)
+        self._ja = (a.indices + 1).astype(np.int32)
+
+    def _adopt(self, previous: "PardisoLU") -> None:
+        self._solver, previous._solver = previous._solver, None
+        self._keys, self._ia, self._ja = previous._keys, previous._ia, previous._ja
 
     def _factorise(self, iparm: dict[int, int]) -> None:
         os.environ.setdefault("PYPARDISO_MKL_RT", _pardiso_library())
         from pypardiso import PyPardisoSolver  # the library is located above first
-        from pypardiso.pardiso_wrapper import PyPardisoError
 
         self._free()
+        if not np.diff(self._a.indptr).all():
+            # PARDISO crashes on an empty row (pypardiso refuses it with a ValueError)
+            raise SingularMatrixError("PARDISO: the matrix has an empty row")
         self._solver = PyPardisoSolver(mtype=11)  # real unsymmetric
         for key, value in iparm.items():
             self._solver.set_iparm(key, value)
-        try:
-            self._solver.factorize(self._a)
-        except (PyPardisoError, ValueError) as exc:  # pypardiso refuses empty rows with a ValueError
-            raise SingularMatrixError(f"PARDISO: {exc}") from exc
+        self._solver.set_iparm(12, 0)  # CSR, not transposed
+        self.analysed = True
+        self._call(12, np.zeros(self._a.shape[0]))
+
+    def _call(self, phase: int, b: np.ndarray) -> np.ndarray:
+        """One call of MKL's ``pardiso`` on this matrix (pypardiso's handle and iparm, our index arrays)."""
+        from pypardiso.pardiso_wrapper import PyPardisoError
+
+        s = self._solver
+        b = np.asfortranarray(b, dtype=np.float64)
+        x = np.zeros_like(b)
+        error = ctypes.c_int32(0)
+        i32 = ctypes.POINTER(ctypes.c_int32)
+        f64 = ctypes.POINTER(ctypes.c_double)
+        s._mkl_pardiso(s.pt.ctypes.data_as(ctypes.POINTER(s._pt_type[0])), ctypes.byref(ctypes.c_int32(1)),
+                       ctypes.byref(ctypes.c_int32(1)), ctypes.byref(ctypes.c_int32(s.mtype)),
+                       ctypes.byref(ctypes.c_int32(phase)), ctypes.byref(ctypes.c_int32(self._a.shape[0])),
+                       self._a.data.ctypes.data_as(f64), self._ia.ctypes.data_as(i32), self._ja.ctypes.data_as(i32),
+                       s.perm.ctypes.data_as(i32), ctypes.byref(ctypes.c_int32(1 if b.ndim == 1 else b.shape[1])),
+                       s.iparm.ctypes.data_as(i32), ctypes.byref(ctypes.c_int32(s.msglvl)),
+                       b.ctypes.data_as(f64), x.ctypes.data_as(f64), ctypes.byref(error))
+        if error.value != 0:
+            raise SingularMatrixError(f"PARDISO: {PyPardisoError(error.value)}")
+        return np.ascontiguousarray(x)
 
     def _free(self) -> None:
         """Release the factor: MKL holds it outside Python's heap, so it is not freed with the
@@ -113,22 +181,36 @@ class PardisoLU:
         """The solve refined up to ``REFINEMENTS`` times until its relative residual is under
         ``check``; the solution and its relative residual."""
         scale = float(np.linalg.norm(b)) or 1.0
-        x = self._solver.solve(self._a, b)
+        x = self._call(33, b)
         r = b - self._a @ x
         for _ in range(REFINEMENTS):
             if float(np.linalg.norm(r)) <= check * scale:
                 break
-            x = x + self._solver.solve(self._a, r)
+            x = x + self._call(33, r)
             r = b - self._a @ x
         return x, float(np.linalg.norm(r)) / scale
+
+    def precondition(self, rhs: np.ndarray) -> np.ndarray:
+        """LU^-1 rhs without PARDISO's own iterative refinement: a preconditioner's application
+        (GMRES corrects what the perturbed pivots leave), at half a refined solve's cost."""
+        if self._solver is None:
+            raise RuntimeError("this PARDISO factorisation was spent (reused by a later one)")
+        steps = int(self._solver.iparm[7])
+        self._solver.iparm[7] = 0
+        try:
+            return self._call(33, np.ascontiguousarray(rhs, dtype=np.float64))
+        finally:
+            self._solver.iparm[7] = steps
 
     def solve(self, rhs: np.ndarray, check: float | None = None) -> np.ndarray:
         """x with A x = rhs. With ``check``, the relative residual |A x - rhs| / |rhs| is brought
         under it by iterative refinement (x += LU^-1 (rhs - A x)), then by the robust factor,
         else refused (``SingularMatrixError``: a singular matrix)."""
+        if self._solver is None:
+            raise RuntimeError("this PARDISO factorisation was spent (reused by a later one)")
         b = np.ascontiguousarray(rhs, dtype=np.float64)
         if check is None:
-            return self._solver.solve(self._a, b)
+            return self._call(33, b)
         x, relative = self._refined(b, check)
         if not relative <= check and not self.robust:
             self._factorise(PARDISO_ROBUST_IPARM)
@@ -139,6 +221,29 @@ class PardisoLU:
                                       f"{REFINEMENTS} refinements of the robust factor, above {check:g} "
                                       "(a singular matrix)")
         return x
+
+
+def _positions(keys: np.ndarray, a: sp.csr_matrix) -> np.ndarray | None:
+    """Where ``a``'s nonzeros sit among the pattern ``keys`` (row * n + column, ascending), or None
+    if one lies outside it."""
+    n = a.shape[0]
+    mine = np.repeat(np.arange(n, dtype=np.int64), np.diff(a.indptr)) * n + a.indices
+    at = np.searchsorted(keys, mine)
+    if at.size and (at[-1] >= keys.size or not np.array_equal(keys[np.minimum(at, keys.size - 1)], mine)):
+        return None
+    return at
+
+
+def _on_union(old: sp.csr_matrix, a: sp.csr_matrix) -> sp.csr_matrix:
+    """``a`` stored on the union of its pattern and ``old``'s (explicit zeros where only ``old`` has entries)."""
+    pattern = sp.csr_matrix((np.ones(old.nnz), old.indices, old.indptr), shape=old.shape)
+    union = (abs(pattern) + abs(a)).tocsr()
+    union.sort_indices()
+    n = a.shape[0]
+    keys = np.repeat(np.arange(n, dtype=np.int64), np.diff(union.indptr)) * n + union.indices
+    values = np.zeros(union.nnz)
+    values[_positions(keys, a)] = a.data
+    return sp.csr_matrix((values, union.indices, union.indptr), shape=a.shape)
 
 
 class SuperLU:
@@ -156,12 +261,17 @@ class SuperLU:
         ``check`` has nothing to add)."""
         return self._lu.solve(np.asarray(rhs, dtype=np.float64))
 
+    def precondition(self, rhs: np.ndarray) -> np.ndarray:
+        """LU^-1 rhs (as ``solve``)."""
+        return self.solve(rhs)
 
-def factorise(a: sp.spmatrix, backend: str | None = None) -> PardisoLU | SuperLU:
-    """The LU factorisation of ``a`` by ``backend`` (``DEFAULT_BACKEND`` when None)."""
+
+def factorise(a: sp.spmatrix, backend: str | None = None, reuse: object = None) -> PardisoLU | SuperLU:
+    """The LU factorisation of ``a`` by ``backend`` (``DEFAULT_BACKEND`` when None). ``reuse``: the
+    factorisation this one replaces (PARDISO reuses its analysis: ``PardisoLU``); it is spent."""
     name = DEFAULT_BACKEND if backend is None else backend
     if name == "pardiso":
-        return PardisoLU(a)
+        return PardisoLU(a, reuse)
     if name == "superlu":
         return SuperLU(a)
     raise ValueError(f"unknown sparse LU backend {name!r} (known: {', '.join(BACKENDS)})")

@@ -33,6 +33,7 @@ from .mac import MacGrid
 from .regrid import regrid_state, same_cell
 from .plastic2d import Discretisation, PlasticLaw, Scales, averaging_operators, corner_xz, equations, fill_map, inside_rod
 from .scene import GridOptions, RodIntruder
+from . import sparse_lu
 from .sparse_lu import SingularMatrixError, factorise
 
 #: Largest scaled residual of a converged stage (equations scaled as in ``plastic2d.equations``;
@@ -229,13 +230,15 @@ class YieldRodSolver(RodSolver):
         inexact Newton step, forcing term min(1e-2, |r|)); a new factorisation when GMRES does not
         converge in ``_GMRES_ITERATIONS`` (the LU costs ~10-50 GMRES iterations)."""
         if self._lu is not None and (self._lu_eps == eps_rel or not FRESH_LU_PER_STAGE):
-            op = LinearOperator(jac.shape, matvec=self._lu.solve, dtype=jac.dtype)
+            apply = self._lu.precondition if sparse_lu.PRECONDITION_UNREFINED else self._lu.solve
+            op = LinearOperator(jac.shape, matvec=apply, dtype=jac.dtype)
             dy, info = gmres(jac, rhs, M=op, rtol=min(1e-2, max(res, 1e-12)), atol=0.0,
                              restart=_GMRES_ITERATIONS, maxiter=1)
             if info == 0:
                 return dy
         try:
-            self._lu = factorise(jac)
+            # the previous LU is replaced: its PARDISO analysis serves this Jacobian's pattern
+            self._lu = factorise(jac, reuse=self._lu)
             self._lu_eps = eps_rel
         except SingularMatrixError as exc:
             raise ConvergenceError(self.model, res, f"Newton: singular Jacobian at eps = {eps_rel:g} V/d ({exc})",

@@ -107,3 +107,51 @@ def test_factors_are_released() -> None:
     for _ in range(40):
         factorise(matrix, "pardiso").solve(rhs)
     assert resident_mb() - before < 100.0
+
+
+def test_a_reused_analysis_solves_as_a_fresh_one() -> None:
+    """Newton's Jacobians share a stencil but not every entry (scipy drops the sums that cancel):
+    a factorisation that replaces another keeps its analysis when the new matrix lies inside the
+    analysed pattern (numerical phase only), analyses the union when it does not, and solves as a
+    fresh factorisation would, to the systems' 1e-10 (module docstring). The one replaced is spent."""
+    full = stokes_like(20)
+    rng = np.random.default_rng(3)
+    rhs = rng.standard_normal(full.shape[0])
+    sparser = full.tolil()
+    sparser[3, 4] = 0.0  # an entry of the stencil that cancels in this Jacobian
+    sparser = sparser.tocsr()
+    sparser.eliminate_zeros()
+    assert sparser.nnz == full.nnz - 1
+    first = factorise(full, "pardiso")
+    assert first.analysed
+    inside = factorise(sparser * 1.5, "pardiso", reuse=first)
+    assert not inside.analysed  # the numerical factorisation alone
+    with pytest.raises(RuntimeError, match="spent"):
+        first.solve(rhs)
+    x = inside.solve(rhs, check=1e-6)
+    assert np.linalg.norm(1.5 * sparser @ x - rhs) <= 1e-10 * np.linalg.norm(rhs)
+    # a pattern outside the analysed one: analysed again, on the union
+    start = factorise(sparser, "pardiso")
+    grown = factorise(full, "pardiso", reuse=start)
+    assert grown.analysed
+    x = grown.solve(rhs, check=1e-6)
+    assert np.linalg.norm(full @ x - rhs) <= 1e-10 * np.linalg.norm(rhs)
+    assert np.allclose(x, factorise(full, "superlu").solve(rhs), rtol=0.0, atol=1e-8 * np.max(np.abs(x)))
+    again = factorise(sparser * 0.5, "pardiso", reuse=grown)  # inside the union now
+    assert not again.analysed
+    assert np.linalg.norm(0.5 * sparser @ again.solve(rhs, check=1e-6) - rhs) <= 1e-10 * np.linalg.norm(rhs)
+
+
+def test_the_preconditioner_is_the_factor_without_refinement() -> None:
+    """``precondition`` applies LU^-1 without PARDISO's refinement steps: on a regular system it is
+    still a solve to the factor's accuracy (1e-10 here), and the factor's refinement setting is
+    left as it was for the checked solves after it."""
+    matrix = convection_diffusion(30)
+    rhs = np.random.default_rng(5).standard_normal(matrix.shape[0])
+    lu = factorise(matrix, "pardiso")
+    steps = int(lu._solver.iparm[7])
+    x = lu.precondition(rhs)
+    assert np.linalg.norm(matrix @ x - rhs) <= 1e-10 * np.linalg.norm(rhs)
+    assert int(lu._solver.iparm[7]) == steps == sparse_lu.PARDISO_IPARM[8]
+    y = factorise(matrix, "superlu").precondition(rhs)
+    assert np.allclose(x, y, rtol=0.0, atol=1e-8 * np.max(np.abs(y)))

@@ -9,6 +9,8 @@ import pyvista as pv
 import xarray as xr
 
 from pipeline.common.formats import open_fields
+from pipeline.coarse_graining.coarse_grain import RULE_CHECK_LIMIT
+from pipeline.coarse_graining.plane import CONTACT_POINTS
 
 
 def sheared_runs(root: Path) -> list[str]:
@@ -29,6 +31,10 @@ def test_x_average_is_the_runs_profile(reduced_dem: Path) -> None:
         plane = xr.open_dataset(reduced_dem / "fields_xz" / "intruder" / f"{run}.nc")
         profile = open_fields(reduced_dem / "fields" / "intruder" / f"{run}.nc")
         np.testing.assert_allclose(plane.z.values, profile.z.values, rtol=0, atol=1e-12)
+        # the contact integral the file used: the rule where its check passed, else the exact one
+        ruled = plane.attrs["contact_integral"] == f"gauss_legendre_{CONTACT_POINTS}"
+        assert ruled or plane.attrs["contact_integral"] == "exact", run
+        assert ruled == (plane.attrs["contact_rule_check"] <= RULE_CHECK_LIMIT), run
         momentum = (plane.rho * plane.u_x.fillna(0.0)).mean("x")
         linear = {name: (plane[name].mean("x"), profile[name]) for name in ("nu", "rho", "rho_body", "sigma_xz_contact")}
         linear["momentum_x"] = (momentum, profile.rho * profile.u_x)
