@@ -11,7 +11,7 @@ integral of the kernel along its branch, ``integral_0^1 phi(x - x_1 + s b_x) phi
   that cost three quarters of a rod-frame field's CPU (docs/dem_cost.md 33).
 The rule's error comes from the truncated Gaussian's kinks at its cut-off: at most 4e-4 of a
 contact's peak weight on branches up to 2.5 w, and on the default's pushed rods' fields (w = d / 2,
-spacing w / 2) at most 8e-5 of each stress field's largest magnitude, 0.024 of its standard error
+spacing w / 2) at most 1.4e-4 of each stress field's largest magnitude, 0.027 of its standard error
 (``benchmarks/plane_rule.py``). In a bed at rest the standard errors of a time average can be
 smaller still: :func:`~pipeline.coarse_graining.coarse_grain.coarse_grain` checks the rule against the
 exact integral on a sample of the snapshots and falls back on the exact one where it matters.
