@@ -10,8 +10,10 @@ With the product kernel of :mod:`pipeline.coarse_graining.kernels` integrated ex
   velocity, so that the time-averaged fields obey the time-averaged momentum balance;
 - contact stress ``sum_c f_c (x) r_c * integral_0^1 phi(r - r_1 + s r_c) ds`` with ``f_c`` the
   force on particle 1 and ``r_c = r_1 - r_2`` (minimum image across periodic faces), summed over
-  every contact in the dump, flowing-wall contacts included; the line integral is exact (an erf
-  or polynomial difference, :meth:`Kernel.segment`). ``sigma_ab = sum f_a r_b ...`` so that the
+  every contact in the dump, flowing-wall contacts included; on profiles the line integral is exact
+  (an erf or polynomial difference, :meth:`Kernel.segment`), on x-z planes a Gauss-Legendre rule
+  along grain branches, checked against the exact integral per run (:mod:`pipeline.coarse_graining.plane`,
+  :func:`_check_contact_rule`). ``sigma_ab = sum f_a r_b ...`` so that the
   momentum balance reads ``d sigma_xz / dz = 0``, ``d sigma_zz / dz = -rho g`` in steady planar
   flow. With this sign ``sigma_xz`` is negative where ``du_x/dz > 0``.
 - ``p = trace / 3``; ``mu = |sigma_xz| / p``; ``shear_rate = du_x/dz`` differentiated exactly
