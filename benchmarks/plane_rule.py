@@ -41,6 +41,11 @@ def main() -> int:
     parser.add_argument("runs", nargs="+", type=Path)
     parser.add_argument("--repeats", type=int, default=1)
     args = parser.parse_args()
+    if not args.config.is_file():
+        parser.error(f"config: {args.config}: no such file")
+    for run in args.runs:
+        if not (run / "run.json").is_file():
+            parser.error(f"run: {run}: no run.json (a run folder of an intruder case, RESULTS/dem/intruder/RUN)")
     config = load_config(args.config)
     rule = plane.LONG_BRANCH
     print(f"rule: {plane.CONTACT_POINTS} Gauss-Legendre points, branches over {rule} w exact")

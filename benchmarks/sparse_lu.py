@@ -89,6 +89,9 @@ def main() -> int:
     parser.add_argument("--compare", nargs=2, default=["pardiso", "pardiso-reuse"], choices=sorted(SETUPS),
                         metavar="SETUP", help=f"the two set-ups, A then B (ratio A / B); of {', '.join(SETUPS)}")
     args = parser.parse_args()
+    for need in ("config.effective.json", "calibration/params.json", "dem/intruder"):
+        if not (args.root / need).exists():
+            parser.error(f"root: {args.root}: no {need} (a finished output root with intruder runs)")
     a, b = args.compare
     totals = {a: 0.0, b: 0.0}
     print(f"{'job':8s} {'model':16s} {'rep':>3s} {a + ' s':>14s} {b + ' s':>14s} {'ratio':>6s} {'max rel dU':>10s}")

@@ -120,8 +120,7 @@ class PardisoLU:
 
     def _set_matrix(self, a: sp.csr_matrix) -> None:
         self._a = a
-        n = a.shape[0]
-        self._keys = np.repeat(np.arange(n, dtype=np.int64), np.diff(a.indptr)) * n + a.indices
+        self._keys = _pattern_keys(a)
         # PARDISO's 1-based index arrays, built once (pypardiso rebuilds them at every call)
         self._ia = (a.indptr + 1).astype(np.int32)
         self._ja = (a.indices + 1).astype(np.int32)
@@ -190,11 +189,14 @@ class PardisoLU:
             r = b - self._a @ x
         return x, float(np.linalg.norm(r)) / scale
 
+    def _live(self) -> None:
+        if self._solver is None:
+            raise RuntimeError("this PARDISO factorisation was spent (reused by a later one)")
+
     def precondition(self, rhs: np.ndarray) -> np.ndarray:
         """LU^-1 rhs without PARDISO's own iterative refinement: a preconditioner's application
         (GMRES corrects what the perturbed pivots leave), at half a refined solve's cost."""
-        if self._solver is None:
-            raise RuntimeError("this PARDISO factorisation was spent (reused by a later one)")
+        self._live()
         steps = int(self._solver.iparm[7])
         self._solver.iparm[7] = 0
         try:
@@ -206,8 +208,7 @@ class PardisoLU:
         """x with A x = rhs. With ``check``, the relative residual |A x - rhs| / |rhs| is brought
         under it by iterative refinement (x += LU^-1 (rhs - A x)), then by the robust factor,
         else refused (``SingularMatrixError``: a singular matrix)."""
-        if self._solver is None:
-            raise RuntimeError("this PARDISO factorisation was spent (reused by a later one)")
+        self._live()
         b = np.ascontiguousarray(rhs, dtype=np.float64)
         if check is None:
             return self._call(33, b)
@@ -223,11 +224,16 @@ class PardisoLU:
         return x
 
 
-def _positions(keys: np.ndarray, a: sp.csr_matrix) -> np.ndarray | None:
-    """Where ``a``'s nonzeros sit among the pattern ``keys`` (row * n + column, ascending), or None
-    if one lies outside it."""
+def _pattern_keys(a: sp.csr_matrix) -> np.ndarray:
+    """Each stored entry of ``a`` (sorted CSR) as row * n + column: ascending."""
     n = a.shape[0]
-    mine = np.repeat(np.arange(n, dtype=np.int64), np.diff(a.indptr)) * n + a.indices
+    return np.repeat(np.arange(n, dtype=np.int64), np.diff(a.indptr)) * n + a.indices
+
+
+def _positions(keys: np.ndarray, a: sp.csr_matrix) -> np.ndarray | None:
+    """Where ``a``'s nonzeros sit among the pattern ``keys`` (:func:`_pattern_keys`), or None if one
+    lies outside it."""
+    mine = _pattern_keys(a)
     at = np.searchsorted(keys, mine)
     if at.size and (at[-1] >= keys.size or not np.array_equal(keys[np.minimum(at, keys.size - 1)], mine)):
         return None
@@ -239,10 +245,8 @@ def _on_union(old: sp.csr_matrix, a: sp.csr_matrix) -> sp.csr_matrix:
     pattern = sp.csr_matrix((np.ones(old.nnz), old.indices, old.indptr), shape=old.shape)
     union = (abs(pattern) + abs(a)).tocsr()
     union.sort_indices()
-    n = a.shape[0]
-    keys = np.repeat(np.arange(n, dtype=np.int64), np.diff(union.indptr)) * n + union.indices
     values = np.zeros(union.nnz)
-    values[_positions(keys, a)] = a.data
+    values[_positions(_pattern_keys(union), a)] = a.data
     return sp.csr_matrix((values, union.indices, union.indptr), shape=a.shape)
 
 

@@ -257,15 +257,16 @@ RULE_CHECK_LIMIT = 0.1
 _RULE_CHECKED = {"c_xx": "sigma_xx", "c_yy": "sigma_yy", "c_zz": "sigma_zz", "c_xz": "sigma_xz", "c_zx": "sigma_zx_contact"}
 
 
-def _check_contact_rule(particles: Dump, contacts: Dump, chosen: np.ndarray, kernel: Kernel, grid: Grid,
-                        errors: dict[str, np.ndarray], body_types: Sequence[int] | None) -> dict[str, Any]:
-    """The x-z contact rule (:mod:`pipeline.coarse_graining.plane`) against the exact integral on
-    ``RULE_CHECK_SNAPSHOTS`` snapshots spread over the window: their mean difference in each contact
-    stress over the field's standard error, at its largest over the bins. The attributes to write,
-    ``contact_integral`` = "exact" when it exceeds ``RULE_CHECK_LIMIT`` (the caller recomputes)."""
-    sample = chosen[np.unique(np.linspace(0, chosen.size - 1, min(RULE_CHECK_SNAPSHOTS, chosen.size)).astype(int))]
-    data = batch(particles, contacts, sample, body_types)
-    difference = (plane_sums(data, kernel, grid) - plane_sums(data, kernel, grid, exact=True)).mean(axis=0)
+def _check_contact_rule(particles: Dump, contacts: Dump, chosen: np.ndarray, sums: np.ndarray, kernel: Kernel,
+                        grid: Grid, errors: dict[str, np.ndarray], body_types: Sequence[int] | None) -> dict[str, Any]:
+    """The x-z contact rule (:mod:`pipeline.coarse_graining.plane`; ``sums``, per snapshot of
+    ``chosen``, are its) against the exact integral on ``RULE_CHECK_SNAPSHOTS`` snapshots spread over
+    the window: their mean difference in each contact stress over the field's standard error, at its
+    largest over the bins. The attributes to write, ``contact_integral`` = "exact" when it exceeds
+    ``RULE_CHECK_LIMIT`` (the caller recomputes)."""
+    sample = np.unique(np.linspace(0, chosen.size - 1, min(RULE_CHECK_SNAPSHOTS, chosen.size)).astype(int))
+    exact = plane_sums(batch(particles, contacts, chosen[sample], body_types), kernel, grid, exact=True)
+    difference = (sums[sample] - exact).mean(axis=0)
     worst = 0.0
     for column, field in _RULE_CHECKED.items():
         err, gap = errors[field], np.abs(difference[SUMS.index(column)])
@@ -313,7 +314,7 @@ def coarse_grain(particles: Dump, contacts: Dump | None, kernel: Kernel, grid: G
     fields, errors, used = block_average(sums, blocks, d, rho_s)
     rule: dict[str, Any] = {}
     if plane and contacts is not None:
-        rule = _check_contact_rule(particles, contacts, chosen, kernel, grid, errors, body_types)
+        rule = _check_contact_rule(particles, contacts, chosen, sums, kernel, grid, errors, body_types)
         if rule["contact_integral"] == "exact":
             sums = np.concatenate([plane_sums(batch(particles, contacts, g, body_types), kernel, grid, exact=True)
                                    for g in groups])

@@ -43,10 +43,10 @@ def _bins(ix: np.ndarray, iz: np.ndarray, ok: np.ndarray, sid: np.ndarray, grid:
 
 
 def _branch_windows(data: SnapshotData, rows: np.ndarray, grid: Grid, c: float
-                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, tuple[np.ndarray, ...]]:
     """The grid window of each contact of ``rows``, covering its branch and the cut-off around it (sized
     for the longest branch among them): x indices (periodic, not yet wrapped) and grid x, z indices,
-    their validity and grid z."""
+    their validity and grid z; and the branch's ends (x1, z1, x2, z2)."""
     assert grid.x is not None
     r1, branch = data.r1[rows], data.branch[rows]
     x1, z1 = r1[:, 0], r1[:, 2]
@@ -55,13 +55,13 @@ def _branch_windows(data: SnapshotData, rows: np.ndarray, grid: Grid, c: float
                    10**18)
     iz, okz = window(np.minimum(z1, z2) - c, float(np.max(np.abs(branch[:, 2]))) + 2 * c, float(grid.z[0]), grid.dz,
                      grid.z.size)
-    return ix, float(grid.x[0]) + ix * grid.dx, iz, okz, float(grid.z[0]) + iz * grid.dz
+    return ix, float(grid.x[0]) + ix * grid.dx, iz, okz, float(grid.z[0]) + iz * grid.dz, (x1, z1, x2, z2)
 
 
 def _ruled_contacts(data: SnapshotData, rows: np.ndarray, kernel: Kernel, grid: Grid, csid: np.ndarray,
                     size: int) -> np.ndarray:
     """The contact sums (columns of ``CONTACT_SUMS``) of the contacts ``rows`` by the Gauss-Legendre rule."""
-    ix, xk, iz, okz, zk = _branch_windows(data, rows, grid, kernel.cutoff)
+    ix, xk, iz, okz, zk, _ = _branch_windows(data, rows, grid, kernel.cutoff)
     r1, branch = data.r1[rows], data.branch[rows]
     # the rule's points from particle 1 (s = 0) to particle 2 (s = 1): (rows, points)
     xq = r1[:, 0, None] - _T[None, :] * branch[:, 0, None]
@@ -79,10 +79,7 @@ def _exact_contacts(data: SnapshotData, rows: np.ndarray, kernel: Kernel, grid: 
     every grid point within the cut-off of the branch's extent (at the others the path misses the
     support and the weight is exactly 0; the slack of 1e-9 c only guards rounding)."""
     c = kernel.cutoff
-    ix, xk, iz, okz, zk = _branch_windows(data, rows, grid, c)
-    r1, branch = data.r1[rows], data.branch[rows]
-    x1, z1 = r1[:, 0], r1[:, 2]
-    x2, z2 = x1 - branch[:, 0], z1 - branch[:, 2]
+    ix, xk, iz, okz, zk, (x1, z1, x2, z2) = _branch_windows(data, rows, grid, c)
     reach = c * (1.0 + 1e-9)
     near_x = (xk > np.minimum(x1, x2)[:, None] - reach) & (xk < np.maximum(x1, x2)[:, None] + reach)
     near_z = okz & (zk > np.minimum(z1, z2)[:, None] - reach) & (zk < np.maximum(z1, z2)[:, None] + reach)
