@@ -24,4 +24,16 @@ for ((i = 0; i < ${#args[@]}; i++)); do
       check "${args[i]#*=}" ;;
   esac
 done
-exec "$repo/.venv/bin/snakemake" "$@"
+# Snakemake 9.27 starts a timer of --max-jobs-per-timespan's span after every scheduling pass, a
+# pass run because a job ended included: every finished job adds a chain of passes, one per span
+# (Snakemake's default 100/1s), for the rest of the run. Over the default's 247 jobs its process
+# took 13 % of a core from the DEM by job 160 (docs/dem_cost.md 34). The same rate over 10 s makes
+# the passes ten times fewer; the exit waits up to one span for the last timers. Left out where
+# the user sets the rate or a profile (a site's profile may set its own).
+rate=(--max-jobs-per-timespan 1000/10s)
+for a in "$@"; do
+  case "$a" in
+    --max-jobs-per-timespan*|--max-jobs-per-second*|--profile*|--workflow-profile*) rate=() ;;
+  esac
+done
+exec "$repo/.venv/bin/snakemake" "${rate[@]}" "$@"
