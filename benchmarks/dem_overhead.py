@@ -35,7 +35,7 @@ import yaml
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
-from pipeline.dem.planar_run import _mpi_environment  # noqa: E402
+from pipeline.dem.planar_run import mpi_environment  # noqa: E402
 
 
 def pipeline_run(config: str, case: str, run: str, out: Path, launcher: str | None = None) -> float:
@@ -86,8 +86,9 @@ def bare_replay(run_dir: Path, work: Path, dumps: bool = True) -> tuple[float, i
     steps = sum(c["steps"] for c in state["chunks"])
     start = time.perf_counter()
     for stage in stages:
-        subprocess.run(["liggghts", "-in", f"in.{stage}", "-log", f"logs/{stage}.log"], cwd=work, check=True,
-                       stdout=subprocess.DEVNULL, env=_mpi_environment(singleton=True))
+        with mpi_environment(singleton=True) as env:
+            subprocess.run(["liggghts", "-in", f"in.{stage}", "-log", f"logs/{stage}.log"], cwd=work, check=True,
+                           stdout=subprocess.DEVNULL, env=env)
         tmp = work / "restart" / f"{stage}.restart.tmp"
         if tmp.exists():
             tmp.replace(work / "restart" / f"{stage}.restart")

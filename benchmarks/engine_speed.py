@@ -15,6 +15,7 @@ core). A benchmark: it prints, it asserts nothing.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import re
 import resource
@@ -31,7 +32,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from pipeline.dem.engines import make_engine  # noqa: E402
 from pipeline.dem.engines.lammps import lammps_environment  # noqa: E402
-from pipeline.dem.engines.liggghts import _mpi_environment  # noqa: E402
+from pipeline.dem.engines.liggghts import mpi_environment  # noqa: E402
 
 LOOP = re.compile(r"Loop time of (\S+) on (\d+) procs for (\d+) steps with (\d+) atoms")
 
@@ -62,12 +63,14 @@ def measure(run_dir: Path, stage: str, dumps: bool = False) -> dict[str, float]:
         (work / f"in.{stage}").write_text(text)
         cmd = engine.command(f"in.{stage}", "logs/bench.log") if hasattr(engine, "command") else \
             engine.launcher.command(f"in.{stage}", "logs/bench.log")
-        env = lammps_environment() if engine.name == "lammps" else _mpi_environment(engine.launcher.singleton)
-        before = resource.getrusage(resource.RUSAGE_CHILDREN)
-        start = time.perf_counter()
-        subprocess.run(cmd, cwd=work, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT, check=True)
-        wall = time.perf_counter() - start
-        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        with contextlib.ExitStack() as stack:
+            env = lammps_environment() if engine.name == "lammps" else \
+                stack.enter_context(mpi_environment(engine.launcher.singleton))
+            before = resource.getrusage(resource.RUSAGE_CHILDREN)
+            start = time.perf_counter()
+            subprocess.run(cmd, cwd=work, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT, check=True)
+            wall = time.perf_counter() - start
+            after = resource.getrusage(resource.RUSAGE_CHILDREN)
         cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
         loops = LOOP.findall((work / "logs" / "bench.log").read_text())
     loop_seconds, _, steps, atoms = loops[-1]

@@ -32,27 +32,28 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from pipeline.dem.engines.liggghts import _mpi_environment  # noqa: E402
+from pipeline.dem.engines.liggghts import mpi_environment  # noqa: E402
 
 
-def modes(binary: str) -> dict[str, tuple[list[str], dict[str, str]]]:
-    """Start mode -> (command prefix, environment)."""
+def modes(binary: str) -> dict[str, tuple[list[str], bool]]:
+    """Start mode -> (command prefix, whether the environment is a singleton's)."""
     mpirun = shutil.which("mpirun")
     if mpirun is None:
         raise SystemExit("error: mpirun not on PATH (scripts/install.sh installs Open MPI)")
-    return {"mpirun -n 1": ([mpirun, "-n", "1", binary], _mpi_environment(False)),
-            "bare, Open MPI defaults": ([binary], _mpi_environment(False)),
-            "bare, singleton settings": ([binary], _mpi_environment(True))}
+    return {"mpirun -n 1": ([mpirun, "-n", "1", binary], False),
+            "bare, Open MPI defaults": ([binary], False),
+            "bare, singleton settings": ([binary], True)}
 
 
-def one_start(prefix: list[str], env: dict[str, str], work: Path) -> tuple[float, float]:
+def one_start(prefix: list[str], singleton: bool, work: Path) -> tuple[float, float]:
     """Wall and CPU seconds of one start on an empty input."""
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    start = time.perf_counter()
-    subprocess.run([*prefix, "-in", "in.empty", "-log", "log.empty"], cwd=work, env=env, stdout=subprocess.DEVNULL,
-                   stderr=subprocess.STDOUT, check=True, timeout=60)
-    wall = time.perf_counter() - start
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    with mpi_environment(singleton) as env:
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
+        start = time.perf_counter()
+        subprocess.run([*prefix, "-in", "in.empty", "-log", "log.empty"], cwd=work, env=env,
+                       stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT, check=True, timeout=60)
+        wall = time.perf_counter() - start
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
     return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
@@ -73,8 +74,8 @@ def main(argv: list[str] | None = None) -> int:
         work = Path(tmp)
         (work / "in.empty").write_text("")
         for _ in range(args.rounds):
-            for mode, (prefix, env) in table.items():
-                wall, cpu = one_start(prefix, env, work)
+            for mode, (prefix, singleton) in table.items():
+                wall, cpu = one_start(prefix, singleton, work)
                 walls[mode].append(wall)
                 cpus[mode].append(cpu)
     first = float(np.median(walls[next(iter(table))]))

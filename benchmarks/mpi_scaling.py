@@ -31,7 +31,7 @@ import yaml
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
-from pipeline.dem.planar_run import _mpi_environment  # noqa: E402
+from pipeline.dem.planar_run import mpi_environment  # noqa: E402
 
 RUN = "I0.2-P200-r1"
 _LOOP = re.compile(r"Loop time of (\S+) on (\d+) procs for (\d+) steps with (\d+) atoms")
@@ -80,8 +80,9 @@ def prepare(source: Path, work: Path, nx: int, ny: int, steps: int) -> Path:
         # their contacts restart without tangential history, which is immaterial for timing.
         "include common_settings.in", "read_restart start.restart", "include materials.in", "run 0",
         f"replicate {nx} {ny} 1 offset ${{Lx}} ${{Ly}} 0.0 shift 0.0 0.0 0.0", "write_restart tiled.restart", ""])))
-    subprocess.run(["liggghts", "-in", "in.tile", "-log", "log.tile"], cwd=bench, stdout=subprocess.DEVNULL,
-                   env=_mpi_environment(), check=True)
+    with mpi_environment() as env:
+        subprocess.run(["liggghts", "-in", "in.tile", "-log", "log.tile"], cwd=bench, stdout=subprocess.DEVNULL,
+                       env=env, check=True)
     return bench
 
 
@@ -90,9 +91,9 @@ def run(bench: Path, ranks: int) -> dict[str, float]:
     log = f"log.{ranks}"
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
-    with open(bench / f"screen.{ranks}", "w") as screen:
+    with open(bench / f"screen.{ranks}", "w") as screen, mpi_environment() as env:
         subprocess.run(["mpirun", "-n", str(ranks), "liggghts", "-in", "in.bench", "-log", log], cwd=bench,
-                       stdout=screen, stderr=subprocess.STDOUT, env=_mpi_environment(), check=True)
+                       stdout=screen, stderr=subprocess.STDOUT, env=env, check=True)
     wall = time.perf_counter() - start
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     # CPU seconds of all ranks (mpirun waits for them, so they count as our children's children).

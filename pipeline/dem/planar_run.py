@@ -26,7 +26,7 @@ from pipeline.dem.engines import CONTACT_COLUMNS, DELTA_COLUMN, make_engine  # n
 # Re-exported: other modules, tests and benchmarks reach the LIGGGHTS templates and launch from here.
 from pipeline.dem import liggghts_render as render  # noqa: F401
 from pipeline.dem import adopted_packing, force_balance
-from pipeline.dem.engines.liggghts import Launcher, _mpi_environment, run_liggghts  # noqa: F401
+from pipeline.dem.engines.liggghts import Launcher, mpi_environment, run_liggghts  # noqa: F401
 from pipeline.dem.lifecycle import (FILL_FILES, FILL_RECORD, OPTIONAL_FILL_FILES, START_RESTART,  # noqa: F401
                                     STEADY_CREEP_BANDS, ChunkedRun, read_settled, settled_timestep)
 from pipeline.dem.liggghts_log import DEMRunError, printed_value

@@ -6,7 +6,10 @@ import os
 import shlex
 import shutil
 import subprocess
+import tempfile
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -20,7 +23,7 @@ from pipeline.dem.liggghts_log import DEMRunError, check_run
 class Launcher:
     """How LIGGGHTS is started: ``mpi_launcher -n ranks liggghts``, and one rank as the bare binary.
 
-    One rank is started without a launcher, as an MPI singleton (:func:`_mpi_environment`): the
+    One rank is started without a launcher, as an MPI singleton (:func:`mpi_environment`): the
     same single process and the same numbers (the SLURM test compares them byte for byte), without
     mpirun's daemon or the interconnect probing a lone process has no use for. A start took a
     median 0.42 s through ``mpirun -n 1`` and 0.37 s bare with Open MPI's defaults, against 0.065 s
@@ -67,9 +70,10 @@ class Launcher:
 SINGLETON_MCA = {"OMPI_MCA_ess_singleton_isolated": "1", "OMPI_MCA_pml": "ob1", "OMPI_MCA_btl": "self,vader"}
 
 
-def _mpi_environment(singleton: bool = False) -> dict[str, str]:
+def _mpi_environment(singleton: bool, session_base: Path) -> dict[str, str]:
     """The environment a LIGGGHTS launch runs in; ``singleton``: a one-rank run started bare
-    (:data:`SINGLETON_MCA`)."""
+    (:data:`SINGLETON_MCA`); ``session_base``: the directory Open MPI keeps its session files in
+    (:func:`mpi_environment` gives each launch its own)."""
     env = dict(os.environ)
     # Open MPI refuses to start as root unless told; CI and containers run as root.
     env.setdefault("OMPI_ALLOW_RUN_AS_ROOT", "1")
@@ -83,7 +87,32 @@ def _mpi_environment(singleton: bool = False) -> dict[str, str]:
     if singleton:
         for key, value in SINGLETON_MCA.items():
             env.setdefault(key, value)
+    # Not a default the user's environment may override: a shared base is what races.
+    env["OMPI_MCA_orte_tmpdir_base"] = str(session_base)
     return env
+
+
+@contextmanager
+def mpi_environment(singleton: bool = False) -> Iterator[dict[str, str]]:
+    """:func:`_mpi_environment` with a session directory of the launch's own, removed afterwards.
+
+    Every isolated singleton is job family 0, so concurrent one-rank launches share Open MPI's
+    session directory ``<tmp>/ompi.<host>.<uid>/jf.0``: one creating it while another, finishing,
+    removes it fails ``MPI_Init`` ("A call to mkdir was unable to create the desired directory ...
+    File exists"). Measured with 4 concurrent loops of a LIGGGHTS start
+    (``benchmarks/singleton_race.py``, docs/dem_cost.md 35): 23 failures in 4000 launches with the
+    shared base, 0 in 4000 with a base each. A base the user names (``OMPI_MCA_orte_tmpdir_base``,
+    say a node's scratch disk) holds the launches' own bases."""
+    named = os.environ.get("OMPI_MCA_orte_tmpdir_base") or None
+    if named is not None and not Path(named).is_dir():
+        raise DEMRunError(f"the environment's OMPI_MCA_orte_tmpdir_base {named!r} is not a directory "
+                          "(Open MPI's session files go there): create it or unset the variable")
+    base = Path(tempfile.mkdtemp(prefix="ompi-", dir=named))
+    try:
+        yield _mpi_environment(singleton, base)
+    finally:
+        # Open MPI removes its own session files; the base is ours, and empty unless a rank crashed.
+        shutil.rmtree(base, ignore_errors=True)
 
 
 def run_liggghts(launcher: Launcher, run_dir: Path, stage: str, label: str) -> float:
@@ -92,13 +121,13 @@ def run_liggghts(launcher: Launcher, run_dir: Path, stage: str, label: str) -> f
     (run_dir / "logs").mkdir(exist_ok=True)
     screen = run_dir / "logs" / f"{stage}.screen"
     start = time.perf_counter()
-    with screen.open("w") as out:
+    with screen.open("w") as out, mpi_environment(launcher.singleton) as env:
         proc = subprocess.run(
             launcher.command(f"in.{stage}", str(log)),
             cwd=run_dir,
             stdout=out,
             stderr=subprocess.STDOUT,
-            env=_mpi_environment(launcher.singleton),
+            env=env,
             check=False,
         )
     seconds = time.perf_counter() - start
