@@ -3,7 +3,10 @@ by side in one process (alternating, CPU seconds by time.process_time; never a t
 PARDISO with its analysis reused between a Newton solve's Jacobians and GMRES preconditioned without
 PARDISO's refinement steps (``pardiso-reuse``, the pipeline's) against PARDISO analysing every
 Jacobian and refining every preconditioner application (``pardiso``, the set-up of docs/dem_cost.md
-26); ``--compare superlu pardiso`` gives that section's comparison.
+26); ``--compare superlu pardiso`` gives that section's comparison. ``--compare stokes-colamd
+stokes-mmd-ata --models ngf`` compares SuperLU's column orderings of the Stokes system
+(``continuum.intruder.mac.STOKES_ORDERING``: scipy's default COLAMD against minimum degree on A^T A,
+docs/dem_cost.md 35), which NGF factorises at every map evaluation.
 
 For each model of ``--models`` and each job of ``--jobs`` (``nominal``: ``python -m pipeline.models
 intruder``, the depth and force sweeps and their F = 0 drifts at 3 cells per d; ``refined``: the grid
@@ -28,13 +31,16 @@ import xarray as xr
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from continuum.intruder import sparse_lu  # noqa: E402
+from continuum.intruder import mac, sparse_lu  # noqa: E402
 from pipeline.models import intruder, intruder_draws  # noqa: E402
 
 PLASTIC = ("local_mu_i", "critical_state", "cosserat", "volume_averaged")
-#: The set-ups compared: (backend, reuse the analysis, precondition without refinement).
-SETUPS = {"superlu": ("superlu", False, False), "pardiso": ("pardiso", False, False),
-          "pardiso-reuse": ("pardiso", True, True)}
+MODELS = (*PLASTIC, "ngf")
+#: The set-ups compared: (backend, reuse the analysis, precondition without refinement, SuperLU's
+#: ordering of the Stokes system).
+SETUPS = {"superlu": ("superlu", False, False, "MMD_ATA"), "pardiso": ("pardiso", False, False, "MMD_ATA"),
+          "pardiso-reuse": ("pardiso", True, True, "MMD_ATA"),
+          "stokes-colamd": ("pardiso", True, True, "COLAMD"), "stokes-mmd-ata": ("pardiso", True, True, "MMD_ATA")}
 SPEEDS = {"nominal": ("speed", "sweep_speed", "drift_speed", "sweep_drift_speed"), "refined": ("speed_refined",)}
 
 
@@ -53,7 +59,8 @@ def job_argv(root: Path, job: str, model: str, out: Path) -> list[str]:
 def run(root: Path, job: str, model: str, backend: str, out: Path) -> tuple[float, dict[str, np.ndarray]]:
     """CPU seconds of one job with the set-up ``backend`` (a key of ``SETUPS``), and the speeds it wrote."""
     out.mkdir(parents=True, exist_ok=True)
-    sparse_lu.DEFAULT_BACKEND, sparse_lu.ANALYSIS_REUSE, sparse_lu.PRECONDITION_UNREFINED = SETUPS[backend]
+    sparse_lu.DEFAULT_BACKEND, sparse_lu.ANALYSIS_REUSE, sparse_lu.PRECONDITION_UNREFINED, mac.STOKES_ORDERING = \
+        SETUPS[backend]
     main = intruder.main if job == "nominal" else intruder_draws.main
     t0 = time.process_time()
     code = main(job_argv(root, job, model, out))
@@ -83,7 +90,7 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("root", type=Path)
     parser.add_argument("--out", required=True, type=Path)
-    parser.add_argument("--models", nargs="+", default=list(PLASTIC), choices=PLASTIC)
+    parser.add_argument("--models", nargs="+", default=list(PLASTIC), choices=MODELS)
     parser.add_argument("--jobs", nargs="+", default=["nominal", "refined"], choices=["nominal", "refined"])
     parser.add_argument("--repeats", type=int, default=1)
     parser.add_argument("--compare", nargs=2, default=["pardiso", "pardiso-reuse"], choices=sorted(SETUPS),

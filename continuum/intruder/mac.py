@@ -27,6 +27,12 @@ from scipy.sparse.linalg import splu
 
 from .scene import RodIntruder
 
+#: SuperLU's column ordering of the Stokes system (``assemble``): minimum degree on A^T A. On the
+#: default's NGF systems it factorises in about 0.6 of COLAMD's time (scipy's default) with 12 %
+#: less fill, to the same residual (``benchmarks/sparse_lu.py --compare stokes-colamd
+#: stokes-mmd-ata --models ngf``, docs/dem_cost.md 35); a benchmark changes it to compare.
+STOKES_ORDERING = "MMD_ATA"
+
 
 @dataclass(frozen=True)
 class MacGrid:
@@ -331,5 +337,5 @@ def assemble(grid: MacGrid, ops: Operators, mask: RodMask, eta_centre: np.ndarra
     keep = sp.diags((~constrained).astype(float))
     ident = sp.diags(constrained.astype(float))
     a = (keep @ matrix + ident).tocsc()
-    lu = splu(a)
+    lu = splu(a, permc_spec=STOKES_ORDERING)
     return StokesSystem(grid, ops, mask, matrix, eta_corner, eta_centre, lu, pin_row, a.tocsr())
