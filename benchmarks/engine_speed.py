@@ -63,9 +63,9 @@ def measure(run_dir: Path, stage: str, dumps: bool = False) -> dict[str, float]:
         (work / f"in.{stage}").write_text(text)
         cmd = engine.command(f"in.{stage}", "logs/bench.log") if hasattr(engine, "command") else \
             engine.launcher.command(f"in.{stage}", "logs/bench.log")
-        with contextlib.ExitStack() as stack:
-            env = lammps_environment() if engine.name == "lammps" else \
-                stack.enter_context(mpi_environment(engine.launcher.singleton))
+        launch = contextlib.nullcontext(lammps_environment()) if engine.name == "lammps" else \
+            mpi_environment(engine.launcher.singleton)
+        with launch as env:
             before = resource.getrusage(resource.RUSAGE_CHILDREN)
             start = time.perf_counter()
             subprocess.run(cmd, cwd=work, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT, check=True)

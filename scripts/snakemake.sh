@@ -27,8 +27,9 @@ done
 # Snakemake 9.27 starts a timer of --max-jobs-per-timespan's span after every scheduling pass, a
 # pass run because a job ended included: every finished job adds a chain of passes, one per span
 # (Snakemake's default 100/1s), for the rest of the run. Over the default's 247 jobs its process
-# took 13 % of a core from the DEM by job 160 (docs/dem_cost.md 34). The same rate over 10 s makes
-# the passes ten times fewer; the exit waits up to one span for the last timers. Left out where
+# took 903 CPU s (0.12 of a core) from the DEM (docs/dem_cost.md 34). The same rate over 10 s makes
+# the passes ten times fewer: 152 CPU s in the next default run (36); the exit waits up to one span
+# for the last timers. Left out where
 # the user sets the rate or a profile (a site's profile may set its own).
 rate=(--max-jobs-per-timespan 1000/10s)
 for a in "$@"; do
