@@ -134,13 +134,19 @@ INTRUDER_MODELS: dict[str, IntruderModel] = {
 def intruder_speed(model: str, geometry: PlanarShear, params: Any, intruder: RodIntruder,
                    cell_length_x: float, grid: GridOptions = GridOptions(),
                    planar_options: dict | None = None, case: str | None = None,
-                   warm: IntruderSpeed | None = None, limit_load: bool = True) -> IntruderSpeed:
+                   warm: IntruderSpeed | None = None, limit_load: bool = True,
+                   fallback: IntruderSpeed | None = None) -> IntruderSpeed:
     """Steady speed U (m s-1, along +x) of a rod under force F (N m-1, along +x) held at height
     z_i in the periodic planar shear cell of period ``cell_length_x`` (m), by the label's entry
     in ``INTRUDER_MODELS``.
 
     ``warm``: an earlier result of the same label on the same grid (its converged fields and
-    pressure start the iteration; e.g. the nominal parameters' solution for a parameter draw).
+    pressure start the iteration; e.g. the nominal parameters' solution for a parameter draw), or
+    on another grid of the same cell, which the local yield-stress laws carry onto this one
+    (``YieldRodSolver.regrids``). ``fallback``: the start to use when ``warm`` cannot start this
+    solve (a state of another grid that the model does not carry: NGF's, the volume-averaged
+    model's), e.g. this grid's solution at the same depth under another push; without it such a
+    solve starts from the planar solution.
     ``limit_load``: where a yield-stress solver finds no steady state, compute the 2D limit load
     to report a push above it as ``OutOfRangeError`` (the rod fails); False leaves every failure
     a ``ConvergenceError`` and skips those two driven solves (a parameter draw needs only whether
@@ -159,16 +165,23 @@ def intruder_speed(model: str, geometry: PlanarShear, params: Any, intruder: Rod
     if entry.estimate is not None:
         return entry.estimate(geometry, params, intruder, cell_length_x, grid, dict(planar_options or {}), case)
     solver = entry.solver(geometry, params, cell_length_x, intruder, grid, case)
-    state = None
-    if warm is not None and warm.state is not None and (np.size(next(iter(warm.state.values()))) == solver.grid.n_cells
-                                                        or "grid" in warm.state):
-        state = warm.state  # (a state with its grid is carried onto this one by the solver)
+    state = next((start.state for start in (warm, fallback)
+                  if start is not None and start.state is not None and _starts(solver, start.state)), None)
     sol = solver.solve(state, limit_load=limit_load)
     attrs = dict(sol.attrs)
     attrs.update({f"residual_{k}": float(v) for k, v in sol.residuals.items()})
     return IntruderSpeed(model, sol.speed, sol.converged, sol.iterations, sol.residual, sol.solve_seconds,
                          sol.n_grid, "2d", attrs.pop("drift_speed"), attrs.pop("mobility"),
                          planar_solve_seconds=sol.planar_seconds, fields=sol.fields, attrs=attrs, state=sol.state)
+
+
+def _starts(solver: RodSolver, state: dict[str, np.ndarray]) -> bool:
+    """Whether ``state`` can start ``solver``: a state of its own grid (the first entry has the
+    cells' size), or one of another grid that the solver carries onto its own (a yield-stress
+    law without averaging: ``YieldRodSolver.regrids``)."""
+    if np.size(next(iter(state.values()))) == solver.grid.n_cells:
+        return True
+    return "grid" in state and isinstance(solver, YieldRodSolver) and solver.regrids
 
 
 def intruder_fields(model: str, geometry: PlanarShear, params: Any, intruder: RodIntruder, cell_length_x: float,

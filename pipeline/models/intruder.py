@@ -17,7 +17,9 @@ sweep is a continuation in F); each parameter draw starts from the nominal solut
 scene. The nominal 2D solves run at ``CELLS_PER_D``, the draws (u_input) at
 ``DRAWS_CELLS_PER_D``, the grid study (``speed_refined``: u_num) at ``REFINED_CELLS_PER_D``, each
 of its solves started from the nominal solution carried onto the finer grid where the solver can
-(the yield-stress models). A scene the nominal parameters give no speed for is solved by neither
+(the local yield-stress laws); where it cannot (NGF, the volume-averaged model), a scene at a depth
+the grid study has already solved starts from that solution, as the nominal sweep does, and the
+first scene at a depth from the planar solution. A scene the nominal parameters give no speed for is solved by neither
 the draws nor the grid study (``NOMINAL_REFUSED``).
 
 Usage: ``python -m pipeline.models intruder --config C --params params.json --model ngf
@@ -42,7 +44,7 @@ from continuum.geometry import PlanarShear
 from continuum.intruder.sensitivity import has_jacobian
 from pipeline.common.formats import open_fields
 from pipeline.common import atomic
-from pipeline.calibration.parameter_sets import model_parameters, normal_stress_ratio, params_of_draw, slip_length
+from pipeline.calibration.parameter_sets import model_parameters, normal_stress_ratio, slip_length
 from pipeline.common.planar_cell import planar_cell
 from pipeline.common.config import load_config
 from pipeline.common.provenance import provenance_attrs
@@ -70,6 +72,11 @@ DRAWS_CELLS_PER_D = CELLS_PER_D
 #: of the plastic models' draw stage (a failed solve, and its limit-load solves, per draw): in the
 #: reduced run of 7ec3cc1, 175 of volume_averaged's 206 draw seconds.
 NOMINAL_REFUSED = "not solved: the calibration's parameters have no prediction for this scene"
+#: Whether a scene solved with a start of another grid that the model does not carry (the grid
+#: study of NGF and the volume-averaged model) starts instead from this grid's solution at the
+#: same depth under another push (``solve_scenes``); False: from the planar solution, as before
+#: 2026-12-08. A switch for ``benchmarks/grid_study_start.py``, which measures both.
+SAME_DEPTH_FALLBACK = True
 #: |U| / V up to which a speed is a rod carried with the top wall (the rate-independent models'
 #: U -> V, reached from above by the regularised solve within its convergence tolerance) and not
 #: the ill-conditioned number the check below refuses. Measured: 1.00004 V for critical state
@@ -133,16 +140,18 @@ def scenes_of(runs: list[dict[str, Any]], fields: list[xr.Dataset], params: dict
 
 
 def solve_scene(model: str, parameters: Any, scene: Scene, cells_per_d: float,
-                warm: IntruderSpeed | None = None, limit_load: bool = True) -> tuple[IntruderSpeed | None, str | None]:
+                warm: IntruderSpeed | None = None, limit_load: bool = True,
+                fallback: IntruderSpeed | None = None) -> tuple[IntruderSpeed | None, str | None]:
     """The label's result for one scene, or None and why it was refused / not converged.
     ``limit_load`` False: a failed yield-stress solve is not followed by the limit load that
     would tell a failing rod from an unconverged solve (``continuum.intruder_speed``), for the
-    parameter draws, whose failure only removes the draw."""
+    parameter draws, whose failure only removes the draw. ``fallback``: the start when ``warm``
+    is of a grid the model does not carry a state across (``continuum.intruder_speed``)."""
     where = f"{scene.depth_over_d:.2f} d" + (f", push {scene.push_over_yield:g} F_y" if scene.force_sweep else "")
     try:
         result = intruder_speed(model, scene.geometry, parameters, scene.rod, scene.cell_length_x,
                                 GridOptions(cells_per_d=cells_per_d), case=scene.label, warm=warm,
-                                limit_load=limit_load)
+                                limit_load=limit_load, fallback=fallback)
     except continuum.OutOfRangeError as exc:
         return None, f"{where}: {exc}"
     except continuum.ConvergenceError as exc:
@@ -159,8 +168,11 @@ def solve_scenes(model: str, parameters: Any, scenes: list[Scene], cells_per_d: 
                  warm: list[IntruderSpeed | None] | None = None, only: list[bool] | None = None,
                  limit_load: bool = True) -> tuple[list[IntruderSpeed | None], list[str | None]]:
     """Every scene (or those where ``only`` is True; the others get None and the reason
-    ``NOMINAL_REFUSED``); without ``warm``, a scene at a depth already solved starts from that
-    solution."""
+    ``NOMINAL_REFUSED``). A scene at a depth already solved on this grid starts from that
+    solution (a continuation in the push), unless ``warm`` gives it a start: with ``warm`` (e.g.
+    the nominal solutions on another grid, for the grid study) that solution is the fallback
+    where ``warm``'s state cannot start the model (NGF and the volume-averaged model carry no
+    state across grids: they then started from the planar solution at every scene)."""
     results: list[IntruderSpeed | None] = []
     reasons: list[str | None] = []
     last: dict[float, IntruderSpeed] = {}
@@ -170,8 +182,10 @@ def solve_scenes(model: str, parameters: Any, scenes: list[Scene], cells_per_d: 
             reasons.append(NOMINAL_REFUSED)
             continue
         # (a warm start that fails is retried cold by the solver itself: continuum.intruder)
-        start = warm[k] if warm is not None else last.get(scene.target)
-        result, reason = solve_scene(model, parameters, scene, cells_per_d, start, limit_load)
+        same_grid = last.get(scene.target)
+        start, fallback = (warm[k], same_grid if SAME_DEPTH_FALLBACK else None) if warm is not None \
+            else (same_grid, None)
+        result, reason = solve_scene(model, parameters, scene, cells_per_d, start, limit_load, fallback)
         if result is not None and result.state is not None:
             last[scene.target] = result
         results.append(result)

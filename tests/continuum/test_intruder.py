@@ -110,6 +110,31 @@ def test_coupled_ngf_converges_at_every_push_of_the_default() -> None:
     assert speeds[(5, f5)] > speeds[(7, f5)] > speeds[(9, f5)] > 0.0
 
 
+
+def test_a_state_of_another_grid_gives_way_to_this_grids_solution_under_another_push() -> None:
+    """The grid study's start for a model that carries no state across grids (NGF; the
+    volume-averaged model too): the nominal state of the coarser grid cannot start the finer
+    grid's solve, so the fallback does, this grid's solution at the same depth under another push
+    (the continuation in the push of ``pipeline.models.intruder.solve_scenes``). That solve starts
+    warm and reaches the cold solve's speed in fewer map evaluations, to 1e-2: ten of the
+    iteration's stopping tolerances on U (1e-3 of a plain step), as two ends of one fixed-point
+    iteration from different starts may differ by several steps; without the fallback the same
+    call starts from the planar solution. 2 cells
+    per d, the rod at 7 d under 0.3 and 0.6 of its yield force, as in the default's sweep."""
+    grid = GridOptions(cells_per_d=2)
+    lighter, pushed = (RodIntruder.below_top(DEFAULT_GEO, 3 * D, 6.5 * D, share * yield_force(7)) for share in (0.3, 0.6))
+    same_depth = intruder_speed("ngf", DEFAULT_GEO, DEFAULT_NGF, lighter, 12 * D, grid)
+    # a converged state of another grid (7 cells), as the nominal solve on the coarser grid leaves it
+    other_grid = replace(same_depth, state={k: np.zeros(7) for k in same_depth.state})
+    continued = intruder_speed("ngf", DEFAULT_GEO, DEFAULT_NGF, pushed, 12 * D, grid, warm=other_grid,
+                               fallback=same_depth)
+    cold = intruder_speed("ngf", DEFAULT_GEO, DEFAULT_NGF, pushed, 12 * D, grid, warm=other_grid)
+    assert (continued.attrs["start"], cold.attrs["start"]) == ("warm", "planar")
+    assert continued.converged and cold.converged
+    assert continued.speed == pytest.approx(cold.speed, rel=1e-2)
+    assert abs(continued.speed / same_depth.speed - 1.0) > 0.1  # another push: another solution
+    assert continued.iterations < cold.iterations
+
 def test_a_solve_that_fails_is_retried_deeper_then_cold() -> None:
     """Where NGF's 2D iteration does not converge (here forced: a solver whose warm solves raise
     ConvergenceError, as a draw's warm start that does not converge in its budget does), ``solve``
