@@ -17,9 +17,9 @@ sweep is a continuation in F); each parameter draw starts from the nominal solut
 scene. The nominal 2D solves run at ``CELLS_PER_D``, the draws (u_input) at
 ``DRAWS_CELLS_PER_D``, the grid study (``speed_refined``: u_num) at ``REFINED_CELLS_PER_D``, each
 of its solves started from the nominal solution carried onto the finer grid where the solver can
-(the local yield-stress laws); where it cannot (NGF, the volume-averaged model), a scene at a depth
-the grid study has already solved starts from that solution, as the nominal sweep does, and the
-first scene at a depth from the planar solution. A scene the nominal parameters give no speed for is solved by neither
+(the local yield-stress laws); where it cannot, NGF's scene at a depth the grid study has already
+solved starts from that solution, as the nominal sweep does (``SAME_DEPTH_FALLBACK``), and the
+volume-averaged model's from the planar solution. A scene the nominal parameters give no speed for is solved by neither
 the draws nor the grid study (``NOMINAL_REFUSED``).
 
 Usage: ``python -m pipeline.models intruder --config C --params params.json --model ngf
@@ -72,10 +72,13 @@ DRAWS_CELLS_PER_D = CELLS_PER_D
 #: of the plastic models' draw stage (a failed solve, and its limit-load solves, per draw): in the
 #: reduced run of 7ec3cc1, 175 of volume_averaged's 206 draw seconds.
 NOMINAL_REFUSED = "not solved: the calibration's parameters have no prediction for this scene"
-#: Whether a scene solved with a start of another grid that the model does not carry (the grid
-#: study of NGF and the volume-averaged model) starts instead from this grid's solution at the
-#: same depth under another push (``solve_scenes``); False: from the planar solution, as before
-#: 2026-12-08. A switch for ``benchmarks/grid_study_start.py``, which measures both.
+#: Whether a scene of NGF's grid study (a fixed-point solver, which carries no state across grids)
+#: starts from the finer grid's own solution at the same depth under the previous push
+#: (``solve_scenes``); False: from the planar solution, as before 2026-12-08. Measured side by side
+#: (``benchmarks/grid_study_start.py``, the reduced run's root): NGF 20.1 -> 18.4 CPU s. Not for the
+#: volume-averaged model, whose Newton continuation from another push failed in every trial and
+#: was retried cold (0.3 and 0.45 -> 0.5 F_y at 2 cells per d; the reduced root: 36.4 -> 38.2 CPU s,
+#: the same speeds to 8e-13). A switch for that benchmark.
 SAME_DEPTH_FALLBACK = True
 #: |U| / V up to which a speed is a rod carried with the top wall (the rate-independent models'
 #: U -> V, reached from above by the regularised solve within its convergence tolerance) and not
@@ -170,9 +173,9 @@ def solve_scenes(model: str, parameters: Any, scenes: list[Scene], cells_per_d: 
     """Every scene (or those where ``only`` is True; the others get None and the reason
     ``NOMINAL_REFUSED``). A scene at a depth already solved on this grid starts from that
     solution (a continuation in the push), unless ``warm`` gives it a start: with ``warm`` (e.g.
-    the nominal solutions on another grid, for the grid study) that solution is the fallback
-    where ``warm``'s state cannot start the model (NGF and the volume-averaged model carry no
-    state across grids: they then started from the planar solution at every scene)."""
+    the nominal solutions on another grid, for the grid study) that solution is NGF's fallback,
+    whose state ``warm`` cannot carry across grids (``SAME_DEPTH_FALLBACK``); the volume-averaged
+    model, which cannot either, starts from the planar solution."""
     results: list[IntruderSpeed | None] = []
     reasons: list[str | None] = []
     last: dict[float, IntruderSpeed] = {}
@@ -183,8 +186,8 @@ def solve_scenes(model: str, parameters: Any, scenes: list[Scene], cells_per_d: 
             continue
         # (a warm start that fails is retried cold by the solver itself: continuum.intruder)
         same_grid = last.get(scene.target)
-        start, fallback = (warm[k], same_grid if SAME_DEPTH_FALLBACK else None) if warm is not None \
-            else (same_grid, None)
+        continued = SAME_DEPTH_FALLBACK and not has_jacobian(model)  # (SAME_DEPTH_FALLBACK: NGF only)
+        start, fallback = (warm[k], same_grid if continued else None) if warm is not None else (same_grid, None)
         result, reason = solve_scene(model, parameters, scene, cells_per_d, start, limit_load, fallback)
         if result is not None and result.state is not None:
             last[scene.target] = result

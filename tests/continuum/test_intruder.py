@@ -112,10 +112,10 @@ def test_coupled_ngf_converges_at_every_push_of_the_default() -> None:
 
 
 def test_a_state_of_another_grid_gives_way_to_this_grids_solution_under_another_push() -> None:
-    """The grid study's start for a model that carries no state across grids (NGF; the
-    volume-averaged model too): the nominal state of the coarser grid cannot start the finer
-    grid's solve, so the fallback does, this grid's solution at the same depth under another push
-    (the continuation in the push of ``pipeline.models.intruder.solve_scenes``). That solve starts
+    """NGF's grid study start (``intruder_speed``'s fallback): NGF carries no state across grids,
+    so the nominal state of the coarser grid cannot start the finer grid's solve, and the
+    fallback does, this grid's solution at the same depth under another push (the continuation in
+    the push of ``pipeline.models.intruder.solve_scenes``). That solve starts
     warm and reaches the cold solve's speed in fewer map evaluations, to 1e-2: ten of the
     iteration's stopping tolerances on U (1e-3 of a plain step), as two ends of one fixed-point
     iteration from different starts may differ by several steps; without the fallback the same
