@@ -6,13 +6,13 @@ grid) started every scene from the planar solution. Now a scene at a depth the j
 solved on the finer grid starts from that solution under its other push
 (``pipeline.models.intruder.SAME_DEPTH_FALLBACK``: the continuation in the push the nominal
 solves use; not for the volume-averaged model, whose continuation failed and was retried cold,
-so that ``--models volume_averaged`` now runs the same job twice). For each model of
+so that ``--models volume_averaged`` runs the same job twice unless ``--newton-too``). For each model of
 ``--models`` the job runs on ROOT's own inputs with
 the switch off (``planar``) and on (``same-depth``), the order alternated per repeat, and prints
 the CPU seconds, their ratio and the largest relative difference of any speed the two wrote (the
 solves' tolerance is a scaled residual of 1e-6; the grid study's differences are percents).
 
-Run: ``python benchmarks/grid_study_start.py ROOT --out OUT [--models ngf] [--repeats 1]``
+Run: ``python benchmarks/grid_study_start.py ROOT --out OUT [--models ngf] [--repeats 1] [--newton-too]``
 """
 from __future__ import annotations
 
@@ -51,7 +51,12 @@ def main() -> int:
     parser.add_argument("--out", required=True, type=Path)
     parser.add_argument("--models", nargs="+", default=["ngf"], choices=MODELS)
     parser.add_argument("--repeats", type=int, default=1)
+    parser.add_argument("--newton-too", action="store_true",
+                        help="let the Newton models (the volume-averaged model) take the same-depth start too: "
+                             "how their loss was measured")
     args = parser.parse_args()
+    if args.newton_too:
+        intruder.has_jacobian = lambda model: False
     for need in ("config.effective.json", "calibration/params.json", "models/intruder"):
         if not (args.root / need).exists():
             parser.error(f"root: {args.root}: no {need} (a finished output root with intruder models)")

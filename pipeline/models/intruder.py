@@ -76,8 +76,8 @@ NOMINAL_REFUSED = "not solved: the calibration's parameters have no prediction f
 #: starts from the finer grid's own solution at the same depth under the previous push
 #: (``solve_scenes``); False: from the planar solution, as before 2026-12-08. Measured side by side
 #: (``benchmarks/grid_study_start.py``, the reduced run's root): NGF 20.1 -> 18.4 CPU s. Not for the
-#: volume-averaged model: on the same root, alone, its grid study took 31.0-31.3 CPU s from the
-#: planar solution and 32.4-35.4 from the other push (two repeats each, the same speeds to 8e-13),
+#: volume-averaged model: on the same root, alone, its grid study took 61.8 CPU s from the planar
+#: solution against 70.6 from the other push (``--newton-too``, two repeats; the same speeds to 8e-13),
 #: and in the tests its warm start from another push failed and was retried cold (0.3 and 0.45 ->
 #: 0.5 F_y at 6.5 d, 2 cells per d). A switch for that benchmark.
 SAME_DEPTH_FALLBACK = True
