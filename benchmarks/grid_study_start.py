@@ -27,7 +27,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from pipeline.models import intruder, intruder_draws  # noqa: E402
-from sparse_lu import MODELS, job_argv, largest_difference  # noqa: E402
+from sparse_lu import MODELS, job_argv, side_by_side  # noqa: E402
 
 STARTS = {"planar": False, "same-depth": True}
 
@@ -61,17 +61,8 @@ def main() -> int:
         if not (args.root / need).exists():
             parser.error(f"root: {args.root}: no {need} (a finished output root with intruder models)")
     a, b = STARTS
-    totals = {a: 0.0, b: 0.0}
-    print(f"{'model':16s} {'rep':>3s} {a + ' s':>12s} {b + ' s':>14s} {'ratio':>6s} {'max rel dU':>10s}")
-    for model in args.models:
-        for rep in range(args.repeats):
-            order = (a, b) if rep % 2 == 0 else (b, a)
-            got = {s: run(args.root, model, s, args.out / s) for s in order}
-            for s in got:
-                totals[s] += got[s][0]
-            print(f"{model:16s} {rep:3d} {got[a][0]:12.1f} {got[b][0]:14.1f} {got[a][0] / got[b][0]:6.2f} "
-                  f"{largest_difference(got[a][1], got[b][1]):10.2g}", flush=True)
-    print(f"total CPU s: {a} {totals[a]:.1f}, {b} {totals[b]:.1f}, ratio {totals[a] / totals[b]:.3f}")
+    side_by_side([(f"refined {model}", lambda s, model=model: run(args.root, model, s, args.out / s))
+                  for model in args.models], a, b, args.repeats)
     return 0
 
 

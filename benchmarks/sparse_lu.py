@@ -24,6 +24,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -86,6 +87,24 @@ def largest_difference(a: dict[str, np.ndarray], b: dict[str, np.ndarray]) -> fl
     return worst
 
 
+def side_by_side(cases: list[tuple[str, Callable[[str], tuple[float, dict[str, np.ndarray]]]]], a: str, b: str,
+                 repeats: int) -> None:
+    """Each case's ``measure(setup)`` (CPU seconds, the speeds written) with set-ups ``a`` and ``b`` in
+    turn, ``a`` first on even repeats and ``b`` first on odd ones (the machine's drift falls on both);
+    prints per run the CPU seconds, their ratio and the largest relative difference of any speed,
+    then the totals."""
+    totals = {a: 0.0, b: 0.0}
+    print(f"{'job':25s} {'rep':>3s} {a + ' s':>14s} {b + ' s':>14s} {'ratio':>6s} {'max rel dU':>10s}")
+    for label, measure in cases:
+        for rep in range(repeats):
+            got = {s: measure(s) for s in ((a, b) if rep % 2 == 0 else (b, a))}
+            for s in got:
+                totals[s] += got[s][0]
+            print(f"{label:25s} {rep:3d} {got[a][0]:14.1f} {got[b][0]:14.1f} {got[a][0] / got[b][0]:6.2f} "
+                  f"{largest_difference(got[a][1], got[b][1]):10.2g}", flush=True)
+    print(f"total CPU s: {a} {totals[a]:.1f}, {b} {totals[b]:.1f}, ratio {totals[a] / totals[b]:.3f}")
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("root", type=Path)
@@ -100,18 +119,8 @@ def main() -> int:
         if not (args.root / need).exists():
             parser.error(f"root: {args.root}: no {need} (a finished output root with intruder runs)")
     a, b = args.compare
-    totals = {a: 0.0, b: 0.0}
-    print(f"{'job':8s} {'model':16s} {'rep':>3s} {a + ' s':>14s} {b + ' s':>14s} {'ratio':>6s} {'max rel dU':>10s}")
-    for job in args.jobs:
-        for model in args.models:
-            for rep in range(args.repeats):
-                order = (a, b) if rep % 2 == 0 else (b, a)
-                got = {s: run(args.root, job, model, s, args.out / s / job) for s in order}
-                for s in got:
-                    totals[s] += got[s][0]
-                print(f"{job:8s} {model:16s} {rep:3d} {got[a][0]:14.1f} {got[b][0]:14.1f} {got[a][0] / got[b][0]:6.2f} "
-                      f"{largest_difference(got[a][1], got[b][1]):10.2g}", flush=True)
-    print(f"total CPU s: {a} {totals[a]:.1f}, {b} {totals[b]:.1f}, ratio {totals[a] / totals[b]:.3f}")
+    side_by_side([(f"{job} {model}", lambda s, job=job, model=model: run(args.root, job, model, s, args.out / s / job))
+                  for job in args.jobs for model in args.models], a, b, args.repeats)
     return 0
 
 

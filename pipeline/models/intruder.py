@@ -180,6 +180,7 @@ def solve_scenes(model: str, parameters: Any, scenes: list[Scene], cells_per_d: 
     results: list[IntruderSpeed | None] = []
     reasons: list[str | None] = []
     last: dict[float, IntruderSpeed] = {}
+    continued = SAME_DEPTH_FALLBACK and not has_jacobian(model)  # (SAME_DEPTH_FALLBACK: NGF only)
     for k, scene in enumerate(scenes):
         if only is not None and not only[k]:
             results.append(None)
@@ -187,7 +188,6 @@ def solve_scenes(model: str, parameters: Any, scenes: list[Scene], cells_per_d: 
             continue
         # (a warm start that fails is retried cold by the solver itself: continuum.intruder)
         same_grid = last.get(scene.target)
-        continued = SAME_DEPTH_FALLBACK and not has_jacobian(model)  # (SAME_DEPTH_FALLBACK: NGF only)
         start, fallback = (warm[k], same_grid if continued else None) if warm is not None else (same_grid, None)
         result, reason = solve_scene(model, parameters, scene, cells_per_d, start, limit_load, fallback)
         if result is not None and result.state is not None:
